@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hotu_drake.embodiment.kinematics import balance_over_feet
 from hotu_drake.embodiment.spec import (
     EmbodimentSpec,
     Geometry,
@@ -189,6 +190,8 @@ class SpecBuilder:
             hands=self.hands,
             notes=notes,
         )
+        if floating_base and {"left_foot", "right_foot"} <= key_bodies.keys():
+            spec.standing_pose = balance_over_feet(spec)
         spec.validate()
         return spec
 

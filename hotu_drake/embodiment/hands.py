@@ -15,9 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from hotu_drake.embodiment.builder import Dof, Drive, SpecBuilder, mirror_axis, mirror_point
-from hotu_drake.embodiment.spec import Geometry, capsule, rpy_aligning_z_to
+from hotu_drake.embodiment.spec import FINGER_PART, Geometry, capsule, rpy_aligning_z_to
 
-FINGER_PART = "finger"
 _M = np.diag([1.0, -1.0, 1.0])  # reflection through the x-z plane
 
 

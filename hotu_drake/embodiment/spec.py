@@ -17,6 +17,7 @@ import numpy as np
 Vec3 = tuple[float, float, float]
 
 # The functional parts of the method (Table I), in a fixed order.
+FINGER_PART = "finger"
 PARTS: tuple[str, ...] = (
     "neck",
     "torso",

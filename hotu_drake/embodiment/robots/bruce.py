@@ -20,8 +20,10 @@ def build(hands: str = "full") -> EmbodimentSpec:
     b = SpecBuilder("bruce", "Westwood BRUCE", hands)
     base = [box((0.12, 0.16, 0.22), (0.02, 0, 0.07)), sphere(0.06, (0.03, 0, 0.22))]
     b.root("base", 1.317, "pelvis", base, base)
-    leg = Drive(10.0, 15.0, 30.0, 1.0, armature=0.002)
-    ankle = Drive(10.0, 15.0, 15.0, 0.5, armature=0.002)
+    # Sheet estimates (hips and knees 30 / 1, ankles 15 / 0.5) doubled: the
+    # least measured to hold the standing pose with PD alone is 1.5x.
+    leg = Drive(10.0, 15.0, 60.0, 2.0, armature=0.002)
+    ankle = Drive(10.0, 15.0, 30.0, 1.0, armature=0.002)
     arm = Drive(3.0, 10.0, 5.0, 0.2, armature=0.001)
     for side in ("left", "right"):
         sy = 1.0 if side == "left" else -1.0

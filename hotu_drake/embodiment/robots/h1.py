@@ -3,6 +3,11 @@
 Numbers from the facts sheet (sources H1a-H1d): 1.8 m, 51.4 kg (H1a
 masses). At q = 0 the legs are straight, arms down and forearms point
 forward; the qb SoftHands continue the forearms (fingers along +x).
+
+PD gains are H1d's for the arms. H1d's leg gains (hip 150 / 2, knee
+200 / 4, ankle 40 / 2, torso 300 / 6) are tuned for a balancing policy; here
+they are doubled, and the ankles raised to 800 / 20, the least measured to
+hold the standing pose with PD alone (with 2x margin on hips and knees).
 """
 
 from __future__ import annotations
@@ -34,7 +39,7 @@ def build(hands: str = "full") -> EmbodimentSpec:
     ]
     b.chain(
         "pelvis", "torso", (0, 0, 0), [Dof("z", Z, -2.35, 2.35)],
-        _drive(200, 23, 300, 6), "torso", 17.789, torso_visuals, [torso_visuals[0], torso_visuals[2]],
+        _drive(200, 23, 600, 12), "torso", 17.789, torso_visuals, [torso_visuals[0], torso_visuals[2]],
     )
     for side in ("left", "right"):
         sy = 1.0 if side == "left" else -1.0
@@ -82,23 +87,23 @@ def build(hands: str = "full") -> EmbodimentSpec:
         sy = 1.0 if side == "left" else -1.0
         b.chain(
             "pelvis", f"{side}_hip_yaw_link", (0, sy * 0.0875, -0.1742),
-            [Dof("z", Z, -0.43, 0.43)], _drive(200, 23, 150, 2), "hip", 2.244,
+            [Dof("z", Z, -0.43, 0.43)], _drive(200, 23, 300, 4), "hip", 2.244,
             [cylinder(0.06, 0.07, (-0.067, 0, 0), Z)], [], side,
         )
         b.chain(
             f"{side}_hip_yaw_link", f"{side}_hip_roll_link", (0.0395, 0, 0),
-            [Dof("x", X, -0.43, 0.43)], _drive(200, 23, 150, 2), "hip", 2.232,
+            [Dof("x", X, -0.43, 0.43)], _drive(200, 23, 300, 4), "hip", 2.232,
             [cylinder(0.05, 0.06, (0, 0, 0), X)], [], side,
         )
         thigh = [capsule(0.05, (0, 0, -0.03), (0, 0, -0.37))]
         b.chain(
             f"{side}_hip_roll_link", f"{side}_thigh", (0, sy * 0.1154, 0),
-            [Dof("y", Y, -1.57, 1.57)], _drive(200, 23, 150, 2), "hip", 4.152, thigh, thigh, side,
+            [Dof("y", Y, -1.57, 1.57)], _drive(200, 23, 300, 4), "hip", 4.152, thigh, thigh, side,
         )
         shank = [capsule(0.025, (0.02, 0, 0), (0.02, 0, -0.40)), sphere(0.05, (0, 0, -0.115))]
         b.chain(
             f"{side}_thigh", f"{side}_shank", (0, 0, -0.4),
-            [Dof("y", Y, -0.26, 2.05)], _drive(300, 14, 200, 4), "knee", 1.721, shank, shank[:1], side,
+            [Dof("y", Y, -0.26, 2.05)], _drive(300, 14, 400, 8), "knee", 1.721, shank, shank[:1], side,
         )
         foot_visuals = [
             capsule(0.014, (-0.035, 0, -0.056), (0.02, 0, -0.045)),
@@ -108,7 +113,7 @@ def build(hands: str = "full") -> EmbodimentSpec:
         corners = [sphere(0.014, (x, y, -0.056)) for x in (-0.035, 0.14) for y in (-0.03, 0.03)]
         b.chain(
             f"{side}_shank", f"{side}_foot", (0, 0, -0.4),
-            [Dof("y", Y, -0.87, 0.52)], _drive(40, 9, 40, 2), "ankle", 0.446, foot_visuals, corners, side,
+            [Dof("y", Y, -0.87, 0.52)], _drive(40, 9, 800, 20), "ankle", 0.446, foot_visuals, corners, side,
         )
 
     pose: dict[str, float] = {}

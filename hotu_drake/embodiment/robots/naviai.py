@@ -5,7 +5,9 @@ torso at shoulder level and the legs hang from a waist yaw joint. Pitch
 joints use +y on both sides (the files flip some left axes; limits are
 converted so that hip flexion is negative and knee flexion positive, as on
 every other embodiment). Per-link masses are the sheet's estimates scaled to
-the 25.9 kg CAD total.
+the 25.9 kg CAD total. Gains are the sheet's estimates, doubled for the
+legs and waist (ankles: est. 40 / 2, here 400 / 10) so that the PD alone
+holds the standing pose with margin.
 """
 
 from __future__ import annotations
@@ -36,7 +38,7 @@ def build(hands: str = "full") -> EmbodimentSpec:
     sacrum = box((0.15, 0.26, 0.12), (0, 0, -0.10))
     b.chain(
         "torso", "sacrum", (-0.0014, 0, -0.4121), [Dof("z", (0, 0, -1), -0.785, 0.785)],
-        Drive(31.2, 7.85, 100, 4), "torso", 3.0, [sacrum], [sacrum],
+        Drive(31.2, 7.85, 200, 8), "torso", 3.0, [sacrum], [sacrum],
     )
     shoulder = Drive(54.67, 4.58, 80, 3)
     for side in ("left", "right"):
@@ -81,19 +83,19 @@ def build(hands: str = "full") -> EmbodimentSpec:
 
     for side in ("left", "right"):
         sy = 1.0 if side == "left" else -1.0
-        hip = Drive(72, 9.37, 150, 5)
+        hip = Drive(72, 9.37, 300, 10)
         b.chain(
             "sacrum", f"{side}_ilium", (0, sy * 0.051, -0.1698), [Dof("z", Z, -0.209, 0.209)],
             hip, "hip", 0.4, [sphere(0.05)], [], side,
         )
         b.chain(
             f"{side}_ilium", f"{side}_ischium", (0, sy * 0.0375, 0), [Dof("x", (-1, 0, 0), -0.436, 0.436)],
-            Drive(72, 8.37, 150, 5), "hip", 0.4, [sphere(0.045)], [], side,
+            Drive(72, 8.37, 300, 10), "hip", 0.4, [sphere(0.045)], [], side,
         )
         thigh = [capsule(0.055, (0, 0, -0.02), (0, 0, -0.32))]
         b.chain(
             f"{side}_ischium", f"{side}_thigh", (0, sy * 0.043, 0), [Dof("y", Y, -2.443, 0.436)],
-            Drive(31.2, 7.85, 150, 5), "hip", 1.6, thigh, thigh, side,
+            Drive(31.2, 7.85, 300, 10), "hip", 1.6, thigh, thigh, side,
         )
         shank = [capsule(0.045, (0, 0, -0.02), (0, 0, -0.34))]
         b.chain(
@@ -108,7 +110,7 @@ def build(hands: str = "full") -> EmbodimentSpec:
                 Dof("y", Y, -0.698, 1.309, effort=13),
                 Dof("x", (-1, 0, 0), -0.331, 0.331, effort=18),
             ],
-            Drive(18, 10.26, 40, 2), "ankle", 0.6, [foot], corners, side,
+            Drive(18, 10.26, 400, 10), "ankle", 0.6, [foot], corners, side,
         )
 
     pose: dict[str, float] = {}

@@ -4,6 +4,11 @@ Numbers from the facts sheet (sources R1, R2): a 1.61 m, about 51 kg
 human. `height` scales every length; mass scales with height cubed unless
 given; efforts and gains scale with mass x length so a taller UDH stands
 the same way.
+
+PD gains are R1's, with torso and leg gains doubled (R1: torso 600 / 60,
+hip and knee 300 / 30, ankle 200 / 20; Isaac Gym's humanoids balance with
+a policy): measured here, a 1.5x stiffer stance is the least that holds the
+standing pose with PD alone, and 2x leaves a margin.
 """
 
 from __future__ import annotations
@@ -55,7 +60,7 @@ def build(hands: str = "full", height: float = NOMINAL_HEIGHT, mass: float | Non
     b.chain(
         "pelvis", "torso", L(0, 0, 0.2362),
         [Dof("x", X, -1.047, 1.047), Dof("y", Y, -1.047, 1.571), Dof("z", Z, -0.873, 0.873)],
-        drive(125, 600, 60, 0.025), "torso", 12.01 * m, torso_shapes, torso_shapes[:1],
+        drive(125, 1200, 120, 0.025), "torso", 12.01 * m, torso_shapes, torso_shapes[:1],
     )
     head = [sphere(0.095 * s, L(0, 0, 0.175))]
     b.chain(
@@ -105,12 +110,12 @@ def build(hands: str = "full", height: float = NOMINAL_HEIGHT, mass: float | Non
                 Dof("y", Y, -2.443, 1.047),
                 Dof("z", Z, *mirror_limits(side, -1.047, 0.611)),
             ],
-            drive(125, 300, 30, 0.02), "hip", 4.5 * m, thigh, thigh, side,
+            drive(125, 600, 60, 0.02), "hip", 4.5 * m, thigh, thigh, side,
         )
         shin = [capsule(0.05 * s, L(0, 0, -0.045), L(0, 0, -0.355))]
         b.chain(
             f"{side}_thigh", f"{side}_shin", L(0, 0, -0.4215),
-            [Dof("y", Y, 0.0, 2.793)], drive(100, 300, 30, 0.02), "knee", 3.0 * m, shin, shin, side,
+            [Dof("y", Y, 0.0, 2.793)], drive(100, 600, 60, 0.02), "knee", 3.0 * m, shin, shin, side,
         )
         foot_box = box(L(0.177, 0.09, 0.055), L(0.045, 0, -0.0225))
         corners = [
@@ -121,7 +126,7 @@ def build(hands: str = "full", height: float = NOMINAL_HEIGHT, mass: float | Non
         b.chain(
             f"{side}_shin", f"{side}_foot", L(0, 0, -0.4099),
             [Dof("x", X, -0.524, 0.524), Dof("y", Y, -0.960, 0.960), Dof("z", Z, -0.698, 0.698)],
-            drive(50, 200, 20, 0.01), "ankle", 1.0 * m, [foot_box], corners, side,
+            drive(50, 400 * 2, 40 * 2, 0.01), "ankle", 1.0 * m, [foot_box], corners, side,
         )
 
     pose: dict[str, float] = {}
