@@ -4,8 +4,6 @@ This first builder stands an embodiment on the floor with the plant's
 built-in PD holding its default pose; later scenarios extend it.
 """
 
-from __future__ import annotations
-
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -61,9 +59,7 @@ def disable_self_collision(plant: MultibodyPlant, scene_graph, model) -> None:
 
 def actuated_joint_order(plant: MultibodyPlant, model) -> list[str]:
     """Joint names in the order of the model's actuation and desired-state ports."""
-    return [
-        plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices(model)
-    ]
+    return [plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices(model)]
 
 
 @dataclass

@@ -1,9 +1,9 @@
 """Embodiments: the unified digital human and the five humanoid robots.
 
-    >>> from hotu_drake import embodiment
-    >>> h1 = embodiment.load("h1", hands="none")
-    >>> h1.part_dof["total"]
-    25
+>>> from hotu_drake import embodiment
+>>> h1 = embodiment.load("h1", hands="none")
+>>> h1.part_dof["total"]
+25
 """
 
 from hotu_drake.embodiment.embodiment import (

@@ -159,9 +159,7 @@ QBHAND_FINGERS = (
 QBHAND_DRIVE = Drive(effort=2.0, velocity=10.0, kp=5.0, kd=0.1, armature=0.007)
 
 
-def qbhand_palm(
-    side: str, frame: HandFrame, at=(0.0, 0.0, 0.0)
-) -> tuple[list[Geometry], list[Geometry]]:
+def qbhand_palm(side: str, frame: HandFrame, at=(0.0, 0.0, 0.0)) -> tuple[list[Geometry], list[Geometry]]:
     """Visual and collision shapes of the qb SoftHand palm and flange.
 
     `at` is the hand root's position in the hand link frame.
@@ -171,9 +169,7 @@ def qbhand_palm(
     return [flange, palm], [palm]
 
 
-def add_qbhand(
-    b: SpecBuilder, side: str, hand_link: str, frame: HandFrame, mount: np.ndarray | None = None
-) -> None:
+def add_qbhand(b: SpecBuilder, side: str, hand_link: str, frame: HandFrame, mount: np.ndarray | None = None) -> None:
     """Add the 29 finger joints of one qb SoftHand to `hand_link`.
 
     `mount` is the hand root's world position at q = 0 (default: the hand

@@ -38,9 +38,7 @@ def link_poses(
     return poses
 
 
-def lowest_collision_point(
-    spec: EmbodimentSpec, q: Mapping[str, float], links: list[str] | None = None
-) -> float:
+def lowest_collision_point(spec: EmbodimentSpec, q: Mapping[str, float], links: list[str] | None = None) -> float:
     """Lowest z of the collision spheres and capsules of `links` (default all)."""
     poses = link_poses(spec, q)
     lowest = np.inf

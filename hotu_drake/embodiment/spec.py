@@ -141,15 +141,11 @@ def capsule(radius: float, start: Vec3, end: Vec3) -> Geometry:
     """A capsule whose segment runs from `start` to `end` (link frame)."""
     a, b = np.asarray(start, float), np.asarray(end, float)
     mid = tuple(float(x) for x in (a + b) / 2)
-    return Geometry(
-        "capsule", (radius, float(np.linalg.norm(b - a))), mid, rpy_aligning_z_to(b - a)
-    )
+    return Geometry("capsule", (radius, float(np.linalg.norm(b - a))), mid, rpy_aligning_z_to(b - a))
 
 
 def cylinder(radius: float, length: float, center: Vec3, axis: Vec3) -> Geometry:
-    return Geometry(
-        "cylinder", (radius, length), tuple(center), rpy_aligning_z_to(np.asarray(axis))
-    )
+    return Geometry("cylinder", (radius, length), tuple(center), rpy_aligning_z_to(np.asarray(axis)))
 
 
 @dataclass

@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import itertools
 
+import numpy as np
+
 from hotu_drake.embodiment.collision import filter_groups
 from hotu_drake.embodiment.formats.common import color, fmt, header, vec
 from hotu_drake.embodiment.spec import EmbodimentSpec, Geometry, JointSpec, LinkSpec, rotation_from_rpy
-
-import numpy as np
 
 
 def _quat(rpy) -> str:
@@ -41,10 +41,7 @@ def _geom(name: str, g: Geometry, extra: str) -> str:
         size = fmt(g.size[0])
     else:
         size = f"{fmt(g.size[0])} {fmt(g.size[1] / 2.0)}"
-    return (
-        f'<geom name="{name}" type="{g.shape}" size="{size}" pos="{vec(g.position)}" '
-        f'quat="{_quat(g.rpy)}" {extra}/>'
-    )
+    return f'<geom name="{name}" type="{g.shape}" size="{size}" pos="{vec(g.position)}" quat="{_quat(g.rpy)}" {extra}/>'
 
 
 def _joint(j: JointSpec) -> str:
@@ -67,11 +64,12 @@ def _body(spec: EmbodimentSpec, link: LinkSpec, joint: JointSpec | None, childre
     elif spec.floating_base:
         out.append(f'{pad}  <freejoint name="root"/>')
     out.append(f'{pad}  <inertial pos="{vec(com)}" mass="{fmt(link.mass)}" fullinertia="{full}"/>')
-    rgba = vec(color(link))
+    visual = f'rgba="{vec(color(link))}" group="1" contype="0" conaffinity="0" mass="0"'
     for i, g in enumerate(link.visuals):
-        out.append(f"{pad}  " + _geom(f"{link.name}_visual_{i}", g, f'rgba="{rgba}" group="1" contype="0" conaffinity="0" mass="0"'))
+        out.append(f"{pad}  " + _geom(f"{link.name}_visual_{i}", g, visual))
+    collision = 'group="3" rgba="0.5 0.5 0.5 0.3" mass="0"'
     for i, g in enumerate(link.collisions):
-        out.append(f"{pad}  " + _geom(f"{link.name}_collision_{i}", g, 'group="3" rgba="0.5 0.5 0.5 0.3" mass="0"'))
+        out.append(f"{pad}  " + _geom(f"{link.name}_collision_{i}", g, collision))
     for child_joint in children.get(link.name, []):
         out += _body(spec, spec.link(child_joint.child), child_joint, children, depth + 1)
     out.append(f"{pad}</body>")

@@ -1,0 +1,1 @@
+"""`python -m hotu_drake.bench ...`: benchmarks that print JSON."""

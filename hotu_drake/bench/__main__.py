@@ -1,0 +1,61 @@
+"""Benchmarks; each prints JSON.
+
+python -m hotu_drake.bench standing [--robot NAME|all] [--hands full|none|both]
+                                    [--seconds S] [--time-step DT] [--no-self-collision]
+"""
+
+import argparse
+import json
+import os
+import sys
+
+from hotu_drake import embodiment
+from hotu_drake.bench.standing import machine, standing_realtime_factor
+from hotu_drake.cli import UserError, run_cli
+from hotu_drake.diagrams import PlantSettings
+
+
+def pin_to_one_core() -> None:
+    """Run on a single core so figures are per core."""
+    if hasattr(os, "sched_setaffinity"):
+        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m hotu_drake.bench", description="Benchmarks that print JSON.")
+    sub = parser.add_subparsers(dest="command", required=True)
+    standing = sub.add_parser("standing", help="real-time factor of each embodiment standing after a 0.1 m drop")
+    standing.add_argument("--robot", default="all", help="an embodiment name or 'all'")
+    standing.add_argument("--hands", choices=["full", "none", "both"], default="both")
+    standing.add_argument("--seconds", type=float, default=5.0, help="simulated seconds per run")
+    standing.add_argument("--time-step", type=float, default=0.005)
+    standing.add_argument("--no-self-collision", action="store_true")
+    standing.add_argument("--json", action="store_true", help="accepted for symmetry; output is always JSON")
+    args = parser.parse_args(argv)
+
+    names = embodiment.EMBODIMENT_NAMES if args.robot == "all" else (args.robot,)
+    if any(n not in embodiment.EMBODIMENT_NAMES for n in names):
+        raise UserError(f"unknown robot '{args.robot}'; choose from {', '.join(embodiment.EMBODIMENT_NAMES)} or all")
+    if args.seconds <= 0 or args.time_step <= 0:
+        raise UserError("--seconds and --time-step must be positive")
+    hands = ("full", "none") if args.hands == "both" else (args.hands,)
+    settings = PlantSettings(time_step=args.time_step, self_collision=not args.no_self_collision)
+    pin_to_one_core()
+    results = []
+    for name in names:
+        for variant in hands:
+            result = standing_realtime_factor(name, variant, args.seconds, settings)
+            print(json.dumps(result), file=sys.stderr, flush=True)
+            results.append(result)
+    report = {
+        "benchmark": "standing",
+        "machine": machine(),
+        "settings": {"time_step": args.time_step, "self_collision": settings.self_collision, "cores": 1},
+        "results": results,
+    }
+    print(json.dumps(report, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(run_cli(main))

@@ -1,0 +1,54 @@
+"""Real-time factor of each embodiment standing after a drop, on one core."""
+
+import platform
+import resource
+import time
+from datetime import UTC, datetime
+
+from hotu_drake import embodiment
+from hotu_drake.diagrams import PlantSettings, build_standing_simulation
+
+
+def machine() -> dict:
+    """What the figures were measured on."""
+    import os
+
+    return {
+        "cpu": platform.processor() or platform.machine(),
+        "cores_visible": os.cpu_count(),
+        "python": platform.python_version(),
+        "drake": _version("drake"),
+        "date": datetime.now(UTC).strftime("%Y-%m-%d"),
+    }
+
+
+def _version(package: str) -> str:
+    from importlib.metadata import version
+
+    return version(package)
+
+
+def standing_realtime_factor(
+    name: str, hands: str, seconds: float, settings: PlantSettings, drop_height: float = 0.1
+) -> dict:
+    """Simulate `seconds` of standing; return the real-time factor and outcome."""
+    emb = embodiment.load(name, hands)
+    start = time.perf_counter()
+    sim = build_standing_simulation(emb, settings, drop_height=drop_height if emb.floating_base else 0.0)
+    build = time.perf_counter() - start
+    start = time.perf_counter()
+    sim.simulator.AdvanceTo(seconds)
+    wall = time.perf_counter() - start
+    height = sim.pelvis_height()
+    nominal = emb.standing_pelvis_height
+    return {
+        "embodiment": name,
+        "hands": hands,
+        "dof": emb.part_dof["total"],
+        "sim_seconds": seconds,
+        "wall_seconds": round(wall, 3),
+        "realtime_factor": round(seconds / wall, 2),
+        "build_seconds": round(build, 3),
+        "pelvis_height_ratio": round(height / nominal, 4) if nominal > 0 else None,
+        "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+    }

@@ -1,0 +1,38 @@
+"""The main demo: `python -m hotu_drake.demo [--out DIR]`.
+
+Builds the six embodiments, prints their per-part DoF table and writes
+`DIR/gallery.html`, a self-contained Meshcat page of the six standing side
+by side, coloured by functional part.
+"""
+
+import argparse
+import sys
+from pathlib import Path
+
+from hotu_drake import embodiment
+from hotu_drake.cli import run_cli
+from hotu_drake.gallery import write_gallery
+from hotu_drake.models.__main__ import dof_table, format_table
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m hotu_drake.demo", description=__doc__.splitlines()[0])
+    parser.add_argument("--out", default="out", help="output folder (default: out)")
+    args = parser.parse_args(argv)
+    out = Path(args.out)
+
+    print("Functional-part DoF of the six embodiments (full hands):")
+    print(format_table(dof_table("full")))
+    for name in embodiment.EMBODIMENT_NAMES:
+        emb = embodiment.load(name, "none")
+        print(
+            f"  {name:7s} no-hands DoF {emb.part_dof['total']:3d}, "
+            f"standing pelvis height {emb.standing_pelvis_height:.3f} m"
+        )
+    gallery = write_gallery(out / "gallery.html")
+    print(f"wrote {gallery} (open it in a browser)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(run_cli(main))

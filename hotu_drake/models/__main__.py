@@ -1,0 +1,111 @@
+"""Model files of the six embodiments.
+
+    python -m hotu_drake.models list [--json]
+    python -m hotu_drake.models export NAME --format sdf|urdf|mjcf [--hands full|none] --out FILE
+    python -m hotu_drake.models generate [--out DIR] [--check]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from hotu_drake import embodiment
+from hotu_drake.cli import UserError, run_cli
+from hotu_drake.embodiment.embodiment import EXPORT_SUFFIX
+from hotu_drake.embodiment.spec import PARTS
+from hotu_drake.io import write_text_atomic
+from hotu_drake.resources import models_dir
+
+
+def dof_table(hands: str = "full") -> dict[str, dict[str, int]]:
+    """{name: {part: dof, ..., "total": n}} for the six embodiments."""
+    return {name: embodiment.load(name, hands).part_dof for name in embodiment.EMBODIMENT_NAMES}
+
+
+def format_table(table: dict[str, dict[str, int]]) -> str:
+    columns = [*PARTS, "total"]
+    lines = ["embodiment".ljust(11) + "".join(c.rjust(9) for c in columns)]
+    for name, row in table.items():
+        lines.append(name.ljust(11) + "".join(str(row[c]).rjust(9) for c in columns))
+    return "\n".join(lines)
+
+
+def generated_files() -> dict[str, str]:
+    """Relative path -> text of every model file that `models/` should hold."""
+    files = {}
+    for name in embodiment.EMBODIMENT_NAMES:
+        for hands in embodiment.HANDS_VARIANTS:
+            emb = embodiment.load(name, hands)
+            for fmt, suffix in EXPORT_SUFFIX.items():
+                files[f"{name}/{name}_hands_{hands}{suffix}"] = emb.model_text(fmt)
+    return files
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m hotu_drake.models",
+        description="List the six embodiments (UDH, NAVIAI, H1, BRUCE, Walker, CURI) "
+        "and export their models as SDF, URDF or MJCF.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True)
+    listing = sub.add_parser("list", help="print the per-part DoF table")
+    listing.add_argument("--json", action="store_true", help="print JSON: {name: {part: dof, total: n}}")
+    listing.add_argument("--hands", choices=embodiment.HANDS_VARIANTS, default="full")
+    export = sub.add_parser("export", help="write one embodiment's model file")
+    export.add_argument("name", help=f"one of {', '.join(embodiment.EMBODIMENT_NAMES)}")
+    export.add_argument("--format", choices=sorted(EXPORT_SUFFIX), required=True)
+    export.add_argument("--hands", choices=embodiment.HANDS_VARIANTS, default="full")
+    export.add_argument("--height", type=float, help="UDH only: body height in metres")
+    export.add_argument("--out", required=True, help="output file")
+    generate = sub.add_parser("generate", help="regenerate every file under models/")
+    generate.add_argument("--out", help="folder to write (default: the repository's models/)")
+    generate.add_argument("--check", action="store_true", help="write nothing; exit 1 if any file differs")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    if args.command == "list":
+        table = dof_table(args.hands)
+        print(json.dumps(table, indent=2) if args.json else format_table(table))
+        return 0
+    if args.command == "export":
+        if args.name not in embodiment.EMBODIMENT_NAMES:
+            raise UserError(f"unknown embodiment '{args.name}'; choose from {', '.join(embodiment.EMBODIMENT_NAMES)}")
+        options = {}
+        if args.height is not None:
+            if args.name != "udh":
+                raise UserError("--height applies to the UDH only")
+            options["height"] = args.height
+        try:
+            emb = embodiment.load(args.name, args.hands, **options)
+        except ValueError as error:
+            raise UserError(str(error)) from None
+        out = Path(args.out)
+        if out.is_dir():
+            raise UserError(f"{out}: is a folder; give a file name")
+        write_text_atomic(out, emb.model_text(args.format))
+        print(f"wrote {out}")
+        return 0
+    root = Path(args.out) if args.out else models_dir()
+    stale = []
+    for relative, text in generated_files().items():
+        path = root / relative
+        if path.exists() and path.read_text(encoding="utf-8") == text:
+            continue
+        stale.append(relative)
+        if not args.check:
+            write_text_atomic(path, text)
+    if args.check:
+        for relative in stale:
+            print(f"differs: {relative}", file=sys.stderr)
+        return 1 if stale else 0
+    print(f"{len(stale)} file(s) updated under {root}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(run_cli(main))
