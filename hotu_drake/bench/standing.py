@@ -14,12 +14,23 @@ def machine() -> dict:
     import os
 
     return {
-        "cpu": platform.processor() or platform.machine(),
+        "cpu": _cpu_model(),
         "cores_visible": os.cpu_count(),
         "python": platform.python_version(),
         "drake": _version("drake"),
         "date": datetime.now(UTC).strftime("%Y-%m-%d"),
     }
+
+
+def _cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
 
 
 def _version(package: str) -> str:

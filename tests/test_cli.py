@@ -1,0 +1,85 @@
+"""The `models` command line: list, export, generate; errors are one line with exit 2."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from hotu_drake import embodiment
+from hotu_drake.models.__main__ import main
+from tests.test_embodiment_parts import EXPECTED
+
+
+def run(*args: str, cwd=None) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "hotu_drake.models", *args], capture_output=True, text=True, cwd=cwd, timeout=300
+    )
+
+
+def test_list_json_is_the_dof_table():
+    result = run("list", "--json")
+    assert result.returncode == 0, result.stderr
+    assert json.loads(result.stdout) == EXPECTED
+
+
+def test_list_prints_a_table(capsys):
+    assert main(["list"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].split()[0] == "embodiment" and lines[0].split()[-1] == "total"
+    assert [line.split()[0] for line in lines[1:]] == list(embodiment.EMBODIMENT_NAMES)
+    assert lines[1].split()[-1] == "92"
+
+
+@pytest.mark.parametrize("fmt,suffix", [("sdf", ".sdf"), ("urdf", ".urdf"), ("mjcf", ".xml")])
+def test_export_writes_the_model(tmp_path, fmt, suffix, capsys):
+    out = tmp_path / f"walker{suffix}"
+    assert main(["export", "walker", "--format", fmt, "--hands", "none", "--out", str(out)]) == 0
+    assert out.read_text() == embodiment.load("walker", "none").model_text(fmt)
+
+
+def test_export_udh_with_height(tmp_path):
+    out = tmp_path / "udh_tall.sdf"
+    assert main(["export", "udh", "--format", "sdf", "--height", "1.85", "--out", str(out)]) == 0
+    assert out.read_text() == embodiment.load("udh", "full", height=1.85).model_text("sdf")
+
+
+@pytest.mark.parametrize(
+    "args,message",
+    [
+        (["export", "atlas", "--format", "sdf"], "unknown embodiment 'atlas'"),
+        (["export", "h1", "--format", "sdf", "--height", "1.7"], "--height applies to the UDH only"),
+        (["export", "udh", "--format", "sdf", "--height", "7"], "height"),
+    ],
+)
+def test_bad_export_is_one_line_and_leaves_no_file(tmp_path, args, message):
+    out = tmp_path / "model.sdf"
+    result = run(*args, "--out", str(out))
+    assert result.returncode == 2
+    assert result.stderr.count("\n") == 1 and result.stderr.startswith("error:")
+    assert message in result.stderr
+    assert "Traceback" not in result.stderr
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_export_to_a_folder_is_refused(tmp_path):
+    result = run("export", "h1", "--format", "urdf", "--out", str(tmp_path))
+    assert result.returncode == 2 and "is a folder" in result.stderr
+
+
+def test_unknown_format_is_refused(tmp_path):
+    result = run("export", "h1", "--format", "obj", "--out", str(tmp_path / "x.obj"))
+    assert result.returncode == 2 and "invalid choice" in result.stderr
+
+
+def test_generate_writes_every_model_and_check_passes(tmp_path):
+    assert main(["generate", "--out", str(tmp_path)]) == 0
+    assert len(list(tmp_path.rglob("*.*"))) == 6 * 2 * 3
+    assert main(["generate", "--out", str(tmp_path), "--check"]) == 0
+    (tmp_path / "h1" / "h1_hands_none.urdf").write_text("stale")
+    assert main(["generate", "--out", str(tmp_path), "--check"]) == 1
+
+
+def test_help_explains():
+    result = run("--help")
+    assert result.returncode == 0 and "SDF, URDF or MJCF" in result.stdout

@@ -1,0 +1,71 @@
+"""Model files: they load in Drake (and MuJoCo) cleanly, and match the specs."""
+
+import pytest
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import JointActuatorIndex
+from pydrake.systems.framework import DiagramBuilder
+
+from hotu_drake import embodiment
+from hotu_drake.diagrams import PlantSettings
+from hotu_drake.models.__main__ import generated_files
+from hotu_drake.resources import model_path, models_dir
+
+VARIANTS = [(n, h) for n in embodiment.EMBODIMENT_NAMES for h in embodiment.HANDS_VARIANTS]
+
+
+def _load(text: str, kind: str) -> MultibodyPlant:
+    from pydrake.multibody.plant import AddMultibodyPlant
+
+    plant, _ = AddMultibodyPlant(PlantSettings().plant_config(), DiagramBuilder())
+    Parser(plant).AddModelsFromString(text, kind)
+    plant.Finalize()
+    return plant
+
+
+@pytest.mark.parametrize("name,hands", VARIANTS)
+@pytest.mark.parametrize("fmt", ["sdf", "urdf"])
+def test_checked_in_model_loads_in_drake_without_warnings(name, hands, fmt, drake_warnings):
+    emb = embodiment.load(name, hands)
+    plant = _load(model_path(name, hands, fmt).read_text(), fmt)
+    assert [r.getMessage() for r in drake_warnings.records] == []
+    assert plant.num_actuators() == len(emb.joint_names)
+    assert plant.num_actuated_dofs() == emb.part_dof["total"] + len(emb.base_joints)
+    expected_positions = len(emb.joint_names) + (7 if emb.floating_base else 0)
+    assert plant.num_positions() == expected_positions
+    for i in range(plant.num_actuators()):
+        actuator = plant.get_joint_actuator(JointActuatorIndex(i))
+        assert actuator.has_controller(), actuator.name()
+        assert actuator.effort_limit() > 0
+    for body_index in plant.GetBodyIndices(plant.GetModelInstanceByName(name)):
+        body = plant.get_body(body_index)
+        assert body.default_mass() > 0, body.name()
+        inertia = body.default_spatial_inertia()
+        assert inertia.IsPhysicallyValid(), body.name()
+
+
+@pytest.mark.parametrize("name,hands", VARIANTS)
+def test_checked_in_mjcf_loads_in_mujoco(name, hands):
+    mujoco = pytest.importorskip("mujoco")
+    emb = embodiment.load(name, hands)
+    model = mujoco.MjModel.from_xml_path(str(model_path(name, hands, "mjcf")))
+    assert model.nu == len(emb.joint_names)
+    assert model.njnt == len(emb.joint_names) + (1 if emb.floating_base else 0)
+    names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, i) for i in range(model.nu)]
+    assert names == emb.joint_names
+
+
+def test_regenerated_models_equal_the_checked_in_files():
+    """Edit a spec, then run `python -m hotu_drake.models generate`."""
+    root = models_dir()
+    differing = [rel for rel, text in generated_files().items() if (root / rel).read_text() != text]
+    assert differing == []
+
+
+def test_mass_and_axes_agree_between_drake_and_the_spec():
+    emb = embodiment.load("h1", "none")
+    plant = _load(emb.model_text("urdf"), "urdf")
+    total = sum(plant.get_body(i).default_mass() for i in plant.GetBodyIndices(plant.GetModelInstanceByName("h1")))
+    assert total == pytest.approx(sum(link.mass for link in emb.spec.links))
+    for joint in emb.spec.joints:
+        assert tuple(plant.GetJointByName(joint.name).revolute_axis()) == pytest.approx(joint.axis, abs=1e-6)
