@@ -12,7 +12,7 @@ from pathlib import Path
 from hotu_drake import embodiment
 from hotu_drake.cli import run_cli
 from hotu_drake.gallery import write_gallery
-from hotu_drake.models.__main__ import dof_table, format_table
+from hotu_drake.models import dof_table, format_table
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -18,10 +18,8 @@ EXPECTED = {
     "curi": dict(neck=2, torso=3, shoulder=6, elbow=2, wrist=6, finger=58, hip=0, knee=0, ankle=0, total=77),
 }
 FINGER_NAMES = ("thumb", "index", "middle", "ring", "little")
-JOINT_NAME = re.compile(
-    r"^(?:(?:left|right)_(?:%s|%s)_\w+|(?:neck|torso)_\w+|base_(?:x|y|yaw))$"
-    % ("|".join(PARTS), "|".join(FINGER_NAMES))
-)
+_SIDED = "|".join((*PARTS, *FINGER_NAMES))
+JOINT_NAME = re.compile(rf"^(?:(?:left|right)_(?:{_SIDED})_\w+|(?:neck|torso)_\w+|base_(?:x|y|yaw))$")
 
 
 @pytest.mark.parametrize("name", embodiment.EMBODIMENT_NAMES)

@@ -8,7 +8,7 @@ from pydrake.systems.framework import DiagramBuilder
 
 from hotu_drake import embodiment
 from hotu_drake.diagrams import PlantSettings
-from hotu_drake.models.__main__ import generated_files
+from hotu_drake.models import generated_files
 from hotu_drake.resources import model_path, models_dir
 
 VARIANTS = [(n, h) for n in embodiment.EMBODIMENT_NAMES for h in embodiment.HANDS_VARIANTS]

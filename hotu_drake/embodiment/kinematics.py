@@ -62,15 +62,22 @@ def lowest_collision_point(spec: EmbodimentSpec, q: Mapping[str, float], links: 
     return float(lowest)
 
 
-def center_of_mass(spec: EmbodimentSpec, q: Mapping[str, float]) -> np.ndarray:
-    """Whole-body centre of mass (root at the origin)."""
+def mass_table(spec: EmbodimentSpec) -> list[tuple[str, float, np.ndarray]]:
+    """(link, mass, centre of mass in the link frame) for every link."""
+    return [(link.name, link.mass, link.mass_properties()[0]) for link in spec.links]
+
+
+def center_of_mass(
+    spec: EmbodimentSpec, q: Mapping[str, float], masses: list[tuple[str, float, np.ndarray]] | None = None
+) -> np.ndarray:
+    """Whole-body centre of mass (root at the origin); pass `mass_table(spec)`
+    as `masses` when calling repeatedly."""
     poses = link_poses(spec, q)
     total, moment = 0.0, np.zeros(3)
-    for link in spec.links:
-        rot, pos = poses[link.name]
-        com, _ = link.mass_properties()
-        total += link.mass
-        moment += link.mass * (pos + rot @ com)
+    for name, mass, com in masses or mass_table(spec):
+        rot, pos = poses[name]
+        total += mass
+        moment += mass * (pos + rot @ com)
     return moment / total
 
 
@@ -95,19 +102,22 @@ def balance_over_feet(spec: EmbodimentSpec) -> dict[str, float]:
     def shifted(delta: float) -> dict[str, float]:
         return pose | {j: pose.get(j, 0.0) + delta for j in hips} | {j: pose.get(j, 0.0) - delta for j in ankles}
 
+    masses = mass_table(spec)
+
     def error(delta: float) -> float:
         trial = shifted(delta)
         points = foot_contact_points(spec, trial)
         middle = 0.5 * (points[:, 0].min() + points[:, 0].max())
-        return float(center_of_mass(spec, trial)[0] - middle)
+        return float(center_of_mass(spec, trial, masses)[0] - middle)
 
-    lo, hi = -0.3, 0.3
-    if error(lo) * error(hi) > 0:
+    # Secant iterations: the offset is smooth and nearly linear in the swing.
+    a, b = 0.0, 0.05
+    error_a, error_b = error(a), error(b)
+    for _ in range(20):
+        if abs(error_b) < 1e-5 or error_b == error_a:
+            break
+        a, b, error_a = b, b - error_b * (b - a) / (error_b - error_a), error_b
+        error_b = error(b)
+    if abs(error_b) > 1e-3 or abs(b) > 0.5:
         raise ValueError(f"{spec.name}: cannot balance the standing pose over the feet")
-    for _ in range(30):  # bisection: the offset is monotonic in the swing
-        mid = 0.5 * (lo + hi)
-        if error(lo) * error(mid) <= 0:
-            hi = mid
-        else:
-            lo = mid
-    return {k: round(v, 4) for k, v in shifted(0.5 * (lo + hi)).items()}
+    return {k: round(v, 4) for k, v in shifted(b).items()}

@@ -15,33 +15,9 @@ from pathlib import Path
 from hotu_drake import embodiment
 from hotu_drake.cli import UserError, run_cli
 from hotu_drake.embodiment.embodiment import EXPORT_SUFFIX
-from hotu_drake.embodiment.spec import PARTS
 from hotu_drake.io import write_text_atomic
+from hotu_drake.models import dof_table, format_table, generated_files
 from hotu_drake.resources import models_dir
-
-
-def dof_table(hands: str = "full") -> dict[str, dict[str, int]]:
-    """{name: {part: dof, ..., "total": n}} for the six embodiments."""
-    return {name: embodiment.load(name, hands).part_dof for name in embodiment.EMBODIMENT_NAMES}
-
-
-def format_table(table: dict[str, dict[str, int]]) -> str:
-    columns = [*PARTS, "total"]
-    lines = ["embodiment".ljust(11) + "".join(c.rjust(9) for c in columns)]
-    for name, row in table.items():
-        lines.append(name.ljust(11) + "".join(str(row[c]).rjust(9) for c in columns))
-    return "\n".join(lines)
-
-
-def generated_files() -> dict[str, str]:
-    """Relative path -> text of every model file that `models/` should hold."""
-    files = {}
-    for name in embodiment.EMBODIMENT_NAMES:
-        for hands in embodiment.HANDS_VARIANTS:
-            emb = embodiment.load(name, hands)
-            for fmt, suffix in EXPORT_SUFFIX.items():
-                files[f"{name}/{name}_hands_{hands}{suffix}"] = emb.model_text(fmt)
-    return files
 
 
 def _parser() -> argparse.ArgumentParser:
