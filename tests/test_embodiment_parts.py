@@ -119,3 +119,25 @@ def test_unknown_names_are_rejected():
         embodiment.load("atlas")
     with pytest.raises(ValueError, match="hands"):
         embodiment.load("h1", hands="left")
+
+
+def test_udh_segments_are_close_to_published_anthropometry():
+    """UDH segment lengths and masses against Winter's fractions of height and mass."""
+    udh = embodiment.load("udh", "none")
+    height = 1.61
+
+    def length(a: str, b: str) -> float:
+        return np.linalg.norm(np.subtract(udh.spec.link(b).origin, udh.spec.link(a).origin)) / height
+
+    lengths = {
+        "upper arm": length("left_upper_arm", "left_forearm"),  # shoulder to elbow
+        "forearm": length("left_forearm", "left_hand"),  # elbow to wrist
+        "thigh": length("left_thigh", "left_shin"),
+        "shank": length("left_shin", "left_foot"),
+    }
+    winter = {"upper arm": 0.186, "forearm": 0.146, "thigh": 0.245, "shank": 0.246}
+    for segment, fraction in winter.items():
+        assert lengths[segment] == pytest.approx(fraction, rel=0.12), segment
+    body = sum(link.mass for link in udh.spec.links)
+    thigh = udh.spec.link("left_thigh").mass / body
+    assert thigh == pytest.approx(0.100, rel=0.15)
