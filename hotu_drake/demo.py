@@ -25,10 +25,12 @@ def main(argv: list[str] | None = None) -> int:
     print(format_table(dof_table("full")))
     for name in embodiment.EMBODIMENT_NAMES:
         emb = embodiment.load(name, "none")
-        print(
-            f"  {name:7s} no-hands DoF {emb.part_dof['total']:3d}, "
+        stance = (
             f"standing pelvis height {emb.standing_pelvis_height:.3f} m"
+            if emb.floating_base
+            else f"holonomic base ({', '.join(emb.base_joints)})"
         )
+        print(f"  {name:7s} no-hands DoF {emb.part_dof['total']:3d}, {stance}")
     gallery = write_gallery(out / "gallery.html")
     print(f"wrote {gallery} (open it in a browser)")
     return 0
