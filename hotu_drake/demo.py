@@ -5,21 +5,22 @@ Builds the six embodiments, prints their per-part DoF table and writes
 by side, coloured by functional part.
 """
 
-import argparse
 import sys
 from pathlib import Path
 
 from hotu_drake import embodiment
-from hotu_drake.cli import run_cli
+from hotu_drake.cli import ArgumentParser, UserError, run_cli
 from hotu_drake.gallery import write_gallery
 from hotu_drake.models import dof_table, format_table
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m hotu_drake.demo", description=__doc__.splitlines()[0])
+    parser = ArgumentParser(prog="python -m hotu_drake.demo", description=__doc__.splitlines()[0])
     parser.add_argument("--out", default="out", help="output folder (default: out)")
     args = parser.parse_args(argv)
     out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UserError(f"{out}: is a file; give a folder")
 
     print("Functional-part DoF of the six embodiments (full hands):")
     print(format_table(dof_table("full")))

@@ -53,6 +53,7 @@ def render_gallery(
         if emb.floating_base:
             root = plant.GetBodyByName(emb.spec.root.name, model)
             plant.SetFreeBodyPose(plant_context, root, RigidTransform([0.0, y, emb.standing_root_height]))
+    meshcat.SetProperty("/Axes", "visible", False)
     meshcat.SetCameraPose(np.array(camera[0]), np.array(camera[1]))
     diagram.ForcedPublish(context)
     return meshcat

@@ -67,9 +67,35 @@ def test_export_to_a_folder_is_refused(tmp_path):
     assert result.returncode == 2 and "is a folder" in result.stderr
 
 
-def test_unknown_format_is_refused(tmp_path):
-    result = run("export", "h1", "--format", "obj", "--out", str(tmp_path / "x.obj"))
-    assert result.returncode == 2 and "invalid choice" in result.stderr
+@pytest.mark.parametrize(
+    "args,message",
+    [
+        (["export", "h1", "--format", "obj"], "invalid choice: 'obj'"),
+        (["export", "udh", "--format", "sdf", "--height", "abc"], "not a number"),
+        (["list", "--hands", "left"], "invalid choice: 'left'"),
+    ],
+)
+def test_usage_errors_are_one_line(tmp_path, args, message):
+    result = run(*args, "--out", str(tmp_path / "x")) if args[0] == "export" else run(*args)
+    assert result.returncode == 2
+    assert result.stderr.count("\n") == 1 and result.stderr.startswith("error:") and message in result.stderr
+
+
+def test_unwritable_output_is_one_line():
+    result = run("export", "h1", "--format", "sdf", "--out", "/proc/hotu_drake_test.sdf")
+    assert result.returncode == 2 and result.stderr.count("\n") == 1
+    assert result.stderr.startswith("error: /proc/hotu_drake_test.sdf: cannot write here")
+
+
+@pytest.mark.parametrize(
+    "args,message",
+    [(["--seconds", "nan"], "finite number"), (["--time-step", "10"], "at most 0.05"), (["--robot", "atlas"], "atlas")],
+)
+def test_bench_rejects_bad_input(args, message):
+    result = subprocess.run(
+        [sys.executable, "-m", "hotu_drake.bench", "standing", *args], capture_output=True, text=True, timeout=120
+    )
+    assert result.returncode == 2 and result.stderr.count("\n") == 1 and message in result.stderr
 
 
 def test_generate_writes_every_model_and_check_passes(tmp_path):

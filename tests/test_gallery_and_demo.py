@@ -28,3 +28,53 @@ def test_demo_prints_the_table_and_writes_the_gallery(tmp_path):
     page = tmp_path / "gallery.html"
     assert page.stat().st_size > 100_000
     assert list(tmp_path.iterdir()) == [page]
+
+
+def _chromium() -> str | None:
+    import shutil
+
+    return shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
+
+
+def test_gallery_renders_six_robots_in_a_browser(tmp_path):
+    """Headless Chromium draws the page: six coloured figures on the floor."""
+    import pytest
+
+    browser = _chromium()
+    if browser is None:
+        pytest.skip("no Chromium on this machine")
+    image_module = pytest.importorskip("PIL.Image")
+    import numpy as np
+
+    from hotu_drake.gallery import write_gallery
+
+    page = write_gallery(tmp_path / "gallery.html", hands="full", meshcat=StartMeshcat())
+    shot = tmp_path / "gallery.png"
+    flags = [
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--enable-unsafe-swiftshader",
+        "--use-angle=swiftshader",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        f"--user-data-dir={tmp_path / 'profile'}",
+        "--window-size=1600,800",
+        "--virtual-time-budget=20000",
+        f"--screenshot={shot}",
+    ]
+    subprocess.run([browser, *flags, page.as_uri()], capture_output=True, timeout=180)
+    if not shot.exists():
+        pytest.skip("Chromium could not take a screenshot here")
+    pixels = np.asarray(image_module.open(shot).convert("RGB"), dtype=float) / 255.0
+    saturation = pixels.max(axis=2) - pixels.min(axis=2)
+    coloured = saturation > 0.25  # the floor and sky are grey; parts are coloured
+    assert coloured.mean() > 0.005
+    # Six figures side by side: coloured columns form six groups across the width.
+    columns = coloured[: int(0.75 * len(coloured))].any(axis=0)
+    edges = np.flatnonzero(np.diff(columns.astype(int)) == 1)
+    groups = len(edges) + int(columns[0])
+    assert 6 <= groups <= 12  # a robot may split where its arms leave the body

@@ -1,5 +1,6 @@
 """Model files: they load in Drake (and MuJoCo) cleanly, and match the specs."""
 
+import numpy as np
 import pytest
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
@@ -69,3 +70,29 @@ def test_mass_and_axes_agree_between_drake_and_the_spec():
     assert total == pytest.approx(sum(link.mass for link in emb.spec.links))
     for joint in emb.spec.joints:
         assert tuple(plant.GetJointByName(joint.name).revolute_axis()) == pytest.approx(joint.axis, abs=1e-6)
+
+
+@pytest.mark.parametrize("name,hands", VARIANTS)
+def test_mjcf_stands_in_mujoco(name, hands):
+    """The MJCF's servos hold the standing pose in MuJoCo as the PD does in Drake."""
+    mujoco = pytest.importorskip("mujoco")
+    emb = embodiment.load(name, hands)
+    spec = mujoco.MjSpec.from_file(str(model_path(name, hands, "mjcf")))
+    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[20, 20, 0.1])
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    if emb.floating_base:
+        data.qpos[2] = emb.standing_root_height + 0.02
+    for joint, q in emb.standing_pose_dict().items():
+        data.qpos[model.joint(joint).qposadr[0]] = q
+    data.ctrl[:] = emb.standing_pose
+    mujoco.mj_forward(model, data)
+    while data.time < 2.0:
+        mujoco.mj_step(model, data)
+    assert np.all(np.isfinite(data.qpos))
+    pelvis = data.body(emb.key_bodies["pelvis"]).xpos
+    if emb.floating_base:
+        assert pelvis[2] == pytest.approx(emb.standing_pelvis_height, rel=0.10)
+    body = [i for i, n in enumerate(emb.joint_names) if n not in emb.base_joints]
+    reached = np.array([data.qpos[model.joint(emb.joint_names[i]).qposadr[0]] for i in body])
+    assert np.max(np.abs(reached - emb.standing_pose[body])) < 0.3

@@ -15,6 +15,12 @@ def test_primitive_inertias_match_textbook_formulas():
     assert np.diag(box((0.1, 0.2, 0.3)).unit_inertia_local()) == pytest.approx(
         [(0.04 + 0.09) / 12, (0.01 + 0.09) / 12, (0.01 + 0.04) / 12]
     )
+    from pydrake.multibody.tree import UnitInertia
+
+    for radius, length in [(0.05, 0.3), (0.02, 0.1), (0.06, 0.6)]:
+        ours = np.diag(Geometry("capsule", (radius, length)).unit_inertia_local())
+        drake = np.diag(UnitInertia.SolidCapsule(radius, length, [0, 0, 1]).CopyToFullMatrix3())
+        assert ours == pytest.approx(drake, rel=1e-9)
     # A capsule of zero length is a sphere.
     tiny = Geometry("capsule", (0.1, 1e-9))
     assert np.diag(tiny.unit_inertia_local()) == pytest.approx([0.004] * 3, rel=1e-6)
@@ -58,5 +64,5 @@ def test_collision_filters_cover_adjacent_links_and_parts():
     groups = filter_groups(embodiment.load("udh", "full").spec)
     assert groups["adjacent_torso"] == ["pelvis", "torso"]  # across the 3-axis waist
     assert groups["adjacent_left_thigh"] == ["pelvis", "left_thigh"]
-    hand = set(groups["part_left_hand"])
+    hand = set(groups["part_left_arm"])
     assert "left_hand" in hand and "left_index_0_link" in hand

@@ -33,10 +33,23 @@ def test_legged_robot_stands_after_a_drop(name):
     assert np.linalg.norm(sim.plant.GetVelocities(context)[3:6]) < 0.05
 
 
-def test_full_hands_h1_stands_too():
-    sim = build_standing_simulation(embodiment.load("h1", "full"), PlantSettings(), drop_height=0.1)
-    sim.simulator.AdvanceTo(3.0)
+@pytest.mark.parametrize("name", ["udh", "naviai", "h1", "walker"])
+def test_legged_robot_with_full_hands_stands_after_a_drop(name):
+    sim = build_standing_simulation(embodiment.load(name, "full"), PlantSettings(), drop_height=0.1)
+    sim.simulator.AdvanceTo(5.0)
     assert sim.pelvis_height() == pytest.approx(sim.embodiment.standing_pelvis_height, rel=0.10)
+    q = sim.joint_positions()
+    # The fingers hold their pose too: no finger joint drifts by more than 0.2 rad.
+    drift = [abs(q[j] - target) for j, target in sim.embodiment.standing_pose_dict().items() if "_" in j]
+    assert max(drift) < 0.2
+
+
+def test_curi_holds_its_torso_and_arms():
+    curi = embodiment.load("curi", "full")
+    sim = build_standing_simulation(curi, PlantSettings())
+    sim.simulator.AdvanceTo(3.0)
+    q = sim.joint_positions()
+    assert max(abs(q[j] - target) for j, target in curi.standing_pose_dict().items()) < 0.06
 
 
 def test_curi_base_follows_a_commanded_planar_velocity():

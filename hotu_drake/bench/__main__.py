@@ -4,14 +4,13 @@ python -m hotu_drake.bench standing [--robot NAME|all] [--hands full|none|both]
                                     [--seconds S] [--time-step DT] [--no-self-collision]
 """
 
-import argparse
 import json
 import os
 import sys
 
 from hotu_drake import embodiment
 from hotu_drake.bench.standing import machine, standing_realtime_factor
-from hotu_drake.cli import UserError, run_cli
+from hotu_drake.cli import ArgumentParser, UserError, positive_float, run_cli
 from hotu_drake.diagrams import PlantSettings
 
 
@@ -22,13 +21,13 @@ def pin_to_one_core() -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m hotu_drake.bench", description="Benchmarks that print JSON.")
+    parser = ArgumentParser(prog="python -m hotu_drake.bench", description="Benchmarks that print JSON.")
     sub = parser.add_subparsers(dest="command", required=True)
     standing = sub.add_parser("standing", help="real-time factor of each embodiment standing after a 0.1 m drop")
     standing.add_argument("--robot", default="all", help="an embodiment name or 'all'")
     standing.add_argument("--hands", choices=["full", "none", "both"], default="both")
-    standing.add_argument("--seconds", type=float, default=5.0, help="simulated seconds per run")
-    standing.add_argument("--time-step", type=float, default=0.005)
+    standing.add_argument("--seconds", type=positive_float, default=5.0, help="simulated seconds per run")
+    standing.add_argument("--time-step", type=positive_float, default=0.005, help="plant step (s), at most 0.05")
     standing.add_argument("--no-self-collision", action="store_true")
     standing.add_argument("--json", action="store_true", help="accepted for symmetry; output is always JSON")
     args = parser.parse_args(argv)
@@ -36,8 +35,8 @@ def main(argv: list[str] | None = None) -> int:
     names = embodiment.EMBODIMENT_NAMES if args.robot == "all" else (args.robot,)
     if any(n not in embodiment.EMBODIMENT_NAMES for n in names):
         raise UserError(f"unknown robot '{args.robot}'; choose from {', '.join(embodiment.EMBODIMENT_NAMES)} or all")
-    if args.seconds <= 0 or args.time_step <= 0:
-        raise UserError("--seconds and --time-step must be positive")
+    if args.time_step > 0.05 or args.seconds > 3600:
+        raise UserError("--time-step must be at most 0.05 s and --seconds at most 3600")
     hands = ("full", "none") if args.hands == "both" else (args.hands,)
     settings = PlantSettings(time_step=args.time_step, self_collision=not args.no_self_collision)
     pin_to_one_core()

@@ -137,15 +137,17 @@ class SpecBuilder:
             prefix = f"{side}_{part}" if side else part
         position = self._origin[parent] + np.asarray(offset, dtype=float)
         current = parent
+        # The light links between axes take their mass out of the child's.
+        light = max(_INTERMEDIATE_MASS_FRACTION * mass, _INTERMEDIATE_MIN_MASS)
+        child_mass = mass - light * (len(dofs) - 1)
         for i, dof in enumerate(dofs):
             last = i == len(dofs) - 1
             joint_name = f"{prefix}_{dof.suffix}"
             if last:
-                self.add_link(child, mass, part, position, visuals, collisions, side)
+                self.add_link(child, child_mass, part, position, visuals, collisions, side)
                 link_name = child
             else:
                 link_name = f"{joint_name}_link"
-                light = max(_INTERMEDIATE_MASS_FRACTION * mass, _INTERMEDIATE_MIN_MASS)
                 radius = 0.01 if mass > 0.5 else 0.003
                 self.add_link(link_name, light, part, position, [sphere(radius)], [], side)
             joint_offset = position - self._origin[current]

@@ -1,14 +1,27 @@
 """Which self-collisions an embodiment ignores.
 
 Adjacent bodies (a link and the nearest ancestor that has collision
-geometry, skipping the light links between the axes of one joint) and the
-links within one functional part of one side never collide; a hand's palm
-and fingers form one group. Every exporter writes these groups.
+geometry, skipping the light links between the axes of one joint), the
+links within one functional part of one side, and the links of one limb
+(an arm with its hand, a leg) never collide. Every exporter writes these
+groups.
 """
 
 from __future__ import annotations
 
 from hotu_drake.embodiment.spec import EmbodimentSpec
+
+# Links of one limb never collide with each other (a Panda arm folds onto
+# itself; a hand closes onto its palm).
+_LIMBS = {
+    "shoulder": "arm",
+    "elbow": "arm",
+    "wrist": "arm",
+    "finger": "arm",
+    "hip": "leg",
+    "knee": "leg",
+    "ankle": "leg",
+}
 
 
 def filter_groups(spec: EmbodimentSpec) -> dict[str, list[str]]:
@@ -30,8 +43,9 @@ def filter_groups(spec: EmbodimentSpec) -> dict[str, list[str]]:
     for link in spec.links:
         if link.name in colliding and link.side:
             by_part.setdefault(f"{link.side}_{link.part}", []).append(link.name)
-            if link.part in ("wrist", "finger"):
-                by_part.setdefault(f"{link.side}_hand", []).append(link.name)
+            limb = _LIMBS.get(link.part)
+            if limb:
+                by_part.setdefault(f"{link.side}_{limb}", []).append(link.name)
     for name, members in by_part.items():
         if len(members) > 1:
             groups[f"part_{name}"] = members

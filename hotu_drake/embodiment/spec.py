@@ -92,7 +92,7 @@ class Geometry:
         m_cyl, m_sph = v_cyl / (v_cyl + v_sph), v_sph / (v_cyl + v_sph)
         axial = m_cyl * 0.5 * r * r + m_sph * 0.4 * r * r
         transverse = m_cyl * (3 * r * r + length * length) / 12.0 + m_sph * (
-            0.4 * r * r + 0.5 * length * length + 0.375 * length * r
+            0.4 * r * r + 0.25 * length * length + 0.375 * length * r
         )
         return np.diag([transverse, transverse, axial])
 

@@ -7,21 +7,20 @@
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
 
 from hotu_drake import embodiment
-from hotu_drake.cli import UserError, run_cli
+from hotu_drake.cli import ArgumentParser, UserError, positive_float, run_cli
 from hotu_drake.embodiment.embodiment import EXPORT_SUFFIX
 from hotu_drake.io import write_text_atomic
 from hotu_drake.models import dof_table, format_table, generated_files
 from hotu_drake.resources import models_dir
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+def _parser() -> ArgumentParser:
+    parser = ArgumentParser(
         prog="python -m hotu_drake.models",
         description="List the six embodiments (UDH, NAVIAI, H1, BRUCE, Walker, CURI) "
         "and export their models as SDF, URDF or MJCF.",
@@ -34,7 +33,7 @@ def _parser() -> argparse.ArgumentParser:
     export.add_argument("name", help=f"one of {', '.join(embodiment.EMBODIMENT_NAMES)}")
     export.add_argument("--format", choices=sorted(EXPORT_SUFFIX), required=True)
     export.add_argument("--hands", choices=embodiment.HANDS_VARIANTS, default="full")
-    export.add_argument("--height", type=float, help="UDH only: body height in metres")
+    export.add_argument("--height", type=positive_float, help="UDH only: body height in metres")
     export.add_argument("--out", required=True, help="output file")
     generate = sub.add_parser("generate", help="regenerate every file under models/")
     generate.add_argument("--out", help="folder to write (default: the repository's models/)")
@@ -67,6 +66,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wrote {out}")
         return 0
     root = Path(args.out) if args.out else models_dir()
+    if root.exists() and not root.is_dir():
+        raise UserError(f"{root}: is a file; give a folder")
     stale = []
     for relative, text in generated_files().items():
         path = root / relative

@@ -3,7 +3,9 @@
 Bodies nest along the kinematic tree with world-aligned frames; the built-in
 PD becomes a `position` actuator with the same gains and force range; the
 ignored self-collision pairs become `<exclude>` elements. Visual geoms are
-in group 1 and do not collide; collision geoms are in group 3.
+in group 1 and do not collide; collision geoms are in group 3. The file
+sets MuJoCo's `implicitfast` integrator at a 2 ms step, which keeps the
+stiff servos of the light finger and wrist links stable.
 """
 
 from __future__ import annotations
@@ -46,11 +48,19 @@ def _geom(name: str, g: Geometry, extra: str) -> str:
 
 def _joint(j: JointSpec) -> str:
     kind = "hinge" if j.kind == "revolute" else "slide"
+    unlimited = np.isinf(j.lower) and np.isinf(j.upper)
+    limits = "" if unlimited else f'range="{fmt(j.lower)} {fmt(j.upper)}" '
     return (
-        f'<joint name="{j.name}" type="{kind}" axis="{vec(j.axis)}" range="{fmt(j.lower)} {fmt(j.upper)}" '
+        f'<joint name="{j.name}" type="{kind}" axis="{vec(j.axis)}" {limits}'
         f'actuatorfrcrange="{fmt(-j.effort)} {fmt(j.effort)}" armature="{fmt(j.armature)}" '
         f'damping="{fmt(j.damping)}"/>'
     )
+
+
+def _ctrlrange(j: JointSpec) -> str:
+    if np.isinf(j.lower) and np.isinf(j.upper):
+        return ""
+    return f' ctrlrange="{fmt(j.lower)} {fmt(j.upper)}"'
 
 
 def _body(spec: EmbodimentSpec, link: LinkSpec, joint: JointSpec | None, children, depth: int) -> list[str]:
@@ -85,7 +95,9 @@ def to_mjcf(spec: EmbodimentSpec) -> str:
         f'<mujoco model="{spec.name}">',
         f"  <!-- {header(spec, 'MJCF')} -->",
         '  <compiler angle="radian" autolimits="true"/>',
-        '  <option timestep="0.005"/>',
+        # Stiff position servos on light links need MuJoCo's implicit
+        # integrator; at the default Euler step the UDH's wrists chatter.
+        '  <option timestep="0.002" integrator="implicitfast"/>',
         "  <worldbody>",
     ]
     if spec.floating_base:
@@ -105,7 +117,7 @@ def to_mjcf(spec: EmbodimentSpec) -> str:
     for j in spec.joints:
         out.append(
             f'    <position name="{j.name}" joint="{j.name}" kp="{fmt(j.kp)}" kv="{fmt(j.kd)}" '
-            f'forcerange="{fmt(-j.effort)} {fmt(j.effort)}" ctrlrange="{fmt(j.lower)} {fmt(j.upper)}"/>'
+            f'forcerange="{fmt(-j.effort)} {fmt(j.effort)}"{_ctrlrange(j)}/>'
         )
     out += ["  </actuator>", "</mujoco>", ""]
     return "\n".join(out)

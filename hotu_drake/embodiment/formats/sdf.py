@@ -6,6 +6,7 @@ turns on its built-in PD from `drake:controller_gains`.
 
 from __future__ import annotations
 
+import math
 from xml.sax.saxutils import quoteattr
 
 from hotu_drake.embodiment.collision import filter_groups
@@ -20,6 +21,13 @@ def _geometry(g: Geometry) -> str:
         return f"<sphere><radius>{fmt(g.size[0])}</radius></sphere>"
     radius, length = g.size
     return f"<{g.shape}><radius>{fmt(radius)}</radius><length>{fmt(length)}</length></{g.shape}>"
+
+
+def _range(j) -> str:
+    """Position limits; an unlimited joint (CURI's base yaw) leaves them out."""
+    if math.isinf(j.lower) and math.isinf(j.upper):
+        return ""
+    return f"<lower>{fmt(j.lower)}</lower><upper>{fmt(j.upper)}</upper>"
 
 
 def to_sdf(spec: EmbodimentSpec) -> str:
@@ -69,8 +77,7 @@ def to_sdf(spec: EmbodimentSpec) -> str:
             f"      <child>{j.child}</child>",
             "      <axis>",
             f"        <xyz>{vec(j.axis)}</xyz>",
-            f"        <limit><lower>{fmt(j.lower)}</lower><upper>{fmt(j.upper)}</upper>"
-            f"<effort>{fmt(j.effort)}</effort><velocity>{fmt(j.velocity)}</velocity></limit>",
+            f"        <limit>{_range(j)}<effort>{fmt(j.effort)}</effort><velocity>{fmt(j.velocity)}</velocity></limit>",
             f"        <dynamics><damping>{fmt(j.damping)}</damping></dynamics>",
             "      </axis>",
             f"      <drake:rotor_inertia>{fmt(j.armature)}</drake:rotor_inertia>",

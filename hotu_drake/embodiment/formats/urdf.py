@@ -5,6 +5,8 @@ collision filter groups. CURI's base joints hang from the `world` link.
 
 from __future__ import annotations
 
+import math
+
 from hotu_drake.embodiment.collision import filter_groups
 from hotu_drake.embodiment.formats.common import color, fmt, header, vec
 from hotu_drake.embodiment.spec import EmbodimentSpec, Geometry
@@ -60,14 +62,16 @@ def to_urdf(spec: EmbodimentSpec) -> str:
             ]
         out.append("  </link>")
     for j in spec.joints:
+        unlimited = math.isinf(j.lower) and math.isinf(j.upper)
+        kind = "continuous" if unlimited and j.kind == "revolute" else j.kind
+        limits = "" if unlimited else f'lower="{fmt(j.lower)}" upper="{fmt(j.upper)}" '
         out += [
-            f'  <joint name="{j.name}" type="{j.kind}">',
+            f'  <joint name="{j.name}" type="{kind}">',
             f'    <parent link="{j.parent}"/>',
             f'    <child link="{j.child}"/>',
             f'    <origin xyz="{vec(j.offset)}" rpy="0 0 0"/>',
             f'    <axis xyz="{vec(j.axis)}"/>',
-            f'    <limit lower="{fmt(j.lower)}" upper="{fmt(j.upper)}" '
-            f'effort="{fmt(j.effort)}" velocity="{fmt(j.velocity)}"/>',
+            f'    <limit {limits}effort="{fmt(j.effort)}" velocity="{fmt(j.velocity)}"/>',
             f'    <dynamics damping="{fmt(j.damping)}"/>',
             "  </joint>",
         ]

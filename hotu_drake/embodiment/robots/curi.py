@@ -10,6 +10,8 @@ modelled, so the two torso pitch joints tilt the upper body.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from hotu_drake.embodiment.builder import Dof, Drive, SpecBuilder, mirror_axis, mirror_point
@@ -78,12 +80,14 @@ def build(hands: str = "full") -> EmbodimentSpec:
         Drive(3000.0, 2.0, 1.0e4, 3.0e3), BASE_PART, 1.0, [sphere(0.02)], [], prefix="base",
     )
     b.chain(
-        "base_y_link", "base", (0, 0, 0), [Dof("yaw", Z, -6.2832, 6.2832)],
+        "base_y_link", "base", (0, 0, 0), [Dof("yaw", Z, -math.inf, math.inf)],
         Drive(1500.0, 2.0, 5.0e3, 1.5e3), BASE_PART, 125 + 26 + 37.81 + 1.18,
         [chassis, control_box, column, *wheels], [chassis, control_box],
         prefix="base",
     )
-    torso = Drive(300.0, 0.3, 2000.0, 200.0)
+    # Without the parallelogram links the two pitch joints carry the upper
+    # body's moment; the sheet's est. 2000 / 200 lets it sag 0.1 rad.
+    torso = Drive(300.0, 0.3, 10000.0, 1000.0)
     b.chain(
         "base", "torso_base", (0.2375, 0, 0.7526), [Dof("z", Z, -1.57, 1.57)],
         torso, "torso", 35.66, [cylinder(0.09, 0.2, (0, 0, -0.1), Z)], [],
@@ -98,10 +102,17 @@ def build(hands: str = "full") -> EmbodimentSpec:
         "torso_lift", "torso_end", (0, 0, 0.25), [Dof("y2", Y, -0.9, 0.9)],
         torso, "torso", 2.40 + 2.148 + 12.083 + 0.803 + 2 * 0.630, chest, chest[1:],
     )
+    # The torso_end link's origin is the torso_y2 joint; the sheet's torso end
+    # frame lies 0.25 m ahead of it, and the head base 0.0147 m further.
+    neck = Drive(30.0, 1.0, 20.0, 1.0)
+    b.chain(
+        "torso_end", "head_pan_link", (0.25 + 0.0147, 0, 0.2775 + 0.045), [Dof("z", Z, -1.57, 1.57)],
+        neck, "neck", 0.534, [cylinder(0.04, 0.043, (0, 0, 0.0215), Z)],
+    )
     head = [sphere(0.10, (0, 0, 0.08))]
     b.chain(
-        "torso_end", "head", (0.0147, 0, 0.3225), [Dof("z", Z, -1.57, 1.57), Dof("y", Y, -0.82, 0.52)],
-        Drive(30.0, 1.0, 20.0, 1.0), "neck", 0.534 + 1.346, head, head,
+        "head_pan_link", "head", (0, 0, 0.043), [Dof("y", Y, -0.82, 0.52)],
+        neck, "neck", 1.346, head, head,
     )
 
     points, axes, flange, flange_rotation = left_panda_frames()

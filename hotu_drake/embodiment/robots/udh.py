@@ -5,10 +5,11 @@ human. `height` scales every length; mass scales with height cubed unless
 given; efforts and gains scale with mass x length so a taller UDH stands
 the same way.
 
-PD gains are R1's, with torso and leg gains doubled (R1: torso 600 / 60,
-hip and knee 300 / 30, ankle 200 / 20; Isaac Gym's humanoids balance with
-a policy): measured here, a 1.5x stiffer stance is the least that holds the
-standing pose with PD alone, and 2x leaves a margin.
+PD gains are R1's for the arms, neck and wrists. R1's stance gains (torso
+600 / 60, hip and knee 300 / 30, ankle 200 / 20) are tuned for a balancing
+policy in Isaac Gym; here torso, hips and knees are doubled and the ankles
+quadrupled (800 / 80): with ankles at 2x the UDH falls after the 0.1 m
+drop with PD alone.
 """
 
 from __future__ import annotations
@@ -126,7 +127,7 @@ def build(hands: str = "full", height: float = NOMINAL_HEIGHT, mass: float | Non
         b.chain(
             f"{side}_shin", f"{side}_foot", L(0, 0, -0.4099),
             [Dof("x", X, -0.524, 0.524), Dof("y", Y, -0.960, 0.960), Dof("z", Z, -0.698, 0.698)],
-            drive(50, 400 * 2, 40 * 2, 0.01), "ankle", 1.0 * m, [foot_box], corners, side,
+            drive(50, 800, 80, 0.01), "ankle", 1.0 * m, [foot_box], corners, side,
         )
 
     pose: dict[str, float] = {}

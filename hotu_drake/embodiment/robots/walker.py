@@ -38,7 +38,7 @@ def build(hands: str = "full") -> EmbodimentSpec:
     head = [sphere(0.11, (0, 0, 0.10))]
     b.chain(
         "torso", "head", (0, -0.0002, 0.0985), [Dof("z", Z, -1.5708, 1.5708), Dof("y", Y, -0.2, 0.2)],
-        Drive(10, 1.8, KP, 5), "neck", 3.211, head, head,
+        Drive(10, 1.8, KP, 5), "neck", 0.11 + 2.003 + 1.208, head, head,
     )
     for side in ("left", "right"):
         sy = 1.0 if side == "left" else -1.0

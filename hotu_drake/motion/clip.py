@@ -1,0 +1,262 @@
+"""`MotionClip`: one motion in memory, one `.npz` format on disk.
+
+A clip is a trajectory sampled at `fps` of an embodiment (the UDH, a robot,
+or `"human"` for a demonstration before retargeting): root pose and twist,
+joint positions and velocities, key-body positions, and optionally object
+poses and binary contacts. Human clips carry no joints (n = 0); their
+landmarks are key bodies.
+
+On disk (`np.savez`, format version 1):
+
+| key | shape / type | meaning |
+|---|---|---|
+| format_version | int | 1 |
+| embodiment, source | str | embodiment name; where the motion came from |
+| fps | float | frames per second |
+| joint_names | (n,) str | joint order of the arrays below |
+| joint_positions, joint_velocities | (T, n) | rad or m; rad/s or m/s |
+| root_position | (T, 3) | world, metres |
+| root_quaternion | (T, 4) | world, w x y z |
+| root_linear_velocity | (T, 3) | world frame |
+| root_angular_velocity | (T, 3) | world frame |
+| key_body_names | (k,) str | |
+| key_body_positions | (T, k, 3) | world |
+| part_index | str (JSON) | functional part -> joint names |
+| object_names | (m,) str | optional objects (box, drill, ...) |
+| object_poses | (T, m, 7) | x y z, w x y z |
+| contact_names | (c,) str | e.g. left_foot, right_hand_box |
+| contacts | (T, c) bool | binary contact per frame |
+"""
+
+import json
+import os
+import tempfile
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from hotu_drake.cli import UserError
+
+FORMAT_VERSION = 1
+_REQUIRED = (
+    "format_version",
+    "embodiment",
+    "source",
+    "fps",
+    "joint_names",
+    "joint_positions",
+    "joint_velocities",
+    "root_position",
+    "root_quaternion",
+    "root_linear_velocity",
+    "root_angular_velocity",
+    "key_body_names",
+    "key_body_positions",
+)
+
+
+class ClipFormatError(UserError):
+    """A clip file or array that does not follow the format."""
+
+
+@dataclass
+class MotionClip:
+    """A motion of one embodiment, sampled at `fps`."""
+
+    embodiment: str
+    source: str
+    fps: float
+    joint_names: list[str]
+    joint_positions: np.ndarray
+    joint_velocities: np.ndarray
+    root_position: np.ndarray
+    root_quaternion: np.ndarray
+    root_linear_velocity: np.ndarray
+    root_angular_velocity: np.ndarray
+    key_body_names: list[str]
+    key_body_positions: np.ndarray
+    part_index: dict[str, list[str]] = field(default_factory=dict)
+    object_names: list[str] = field(default_factory=list)
+    object_poses: np.ndarray | None = None
+    contact_names: list[str] = field(default_factory=list)
+    contacts: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    @property
+    def num_frames(self) -> int:
+        return int(self.root_position.shape[0])
+
+    @property
+    def duration(self) -> float:
+        return (self.num_frames - 1) / self.fps
+
+    @property
+    def times(self) -> np.ndarray:
+        return np.arange(self.num_frames) / self.fps
+
+    def joint(self, name: str) -> np.ndarray:
+        """The trajectory of one joint."""
+        return self.joint_positions[:, self.joint_names.index(name)]
+
+    def key_body(self, name: str) -> np.ndarray:
+        """The (T, 3) trajectory of one key body."""
+        return self.key_body_positions[:, self.key_body_names.index(name)]
+
+    def contact(self, name: str) -> np.ndarray:
+        if self.contacts is None or name not in self.contact_names:
+            raise KeyError(f"clip has no contact named {name!r}")
+        return self.contacts[:, self.contact_names.index(name)]
+
+    def object_pose(self, name: str) -> np.ndarray:
+        if self.object_poses is None or name not in self.object_names:
+            raise KeyError(f"clip has no object named {name!r}")
+        return self.object_poses[:, self.object_names.index(name)]
+
+    def validate(self, where: str = "clip") -> None:
+        """Raise `ClipFormatError` on wrong shapes, NaNs or zero frames."""
+        if not np.isfinite(self.fps) or self.fps <= 0:
+            raise ClipFormatError(f"{where}: fps must be a positive number")
+        t = np.asarray(self.root_position).shape[0] if np.ndim(self.root_position) == 2 else -1
+        if t <= 0:
+            raise ClipFormatError(f"{where}: has zero frames")
+        n, k = len(self.joint_names), len(self.key_body_names)
+        shapes = {
+            "joint_positions": (t, n),
+            "joint_velocities": (t, n),
+            "root_position": (t, 3),
+            "root_quaternion": (t, 4),
+            "root_linear_velocity": (t, 3),
+            "root_angular_velocity": (t, 3),
+            "key_body_positions": (t, k, 3),
+        }
+        if self.object_names or self.object_poses is not None:
+            shapes["object_poses"] = (t, len(self.object_names), 7)
+        if self.contact_names or self.contacts is not None:
+            shapes["contacts"] = (t, len(self.contact_names))
+        for name, shape in shapes.items():
+            value = getattr(self, name)
+            if value is None or np.shape(value) != shape:
+                raise ClipFormatError(f"{where}: {name} has shape {np.shape(value)}, expected {shape}")
+            if name != "contacts" and not np.all(np.isfinite(value)):
+                raise ClipFormatError(f"{where}: {name} contains NaN or infinite values")
+        norms = np.linalg.norm(self.root_quaternion, axis=1)
+        if np.any(np.abs(norms - 1.0) > 1e-3):
+            raise ClipFormatError(f"{where}: root_quaternion rows are not unit quaternions")
+        for part, joints in self.part_index.items():
+            unknown = set(joints) - set(self.joint_names)
+            if unknown:
+                raise ClipFormatError(f"{where}: part {part} names unknown joints {sorted(unknown)[:3]}")
+
+    def slice(self, start: int, stop: int) -> "MotionClip":
+        """Frames [start, stop) as a new clip."""
+        s = np.s_[start:stop]
+        return MotionClip(
+            embodiment=self.embodiment,
+            source=self.source,
+            fps=self.fps,
+            joint_names=list(self.joint_names),
+            joint_positions=self.joint_positions[s],
+            joint_velocities=self.joint_velocities[s],
+            root_position=self.root_position[s],
+            root_quaternion=self.root_quaternion[s],
+            root_linear_velocity=self.root_linear_velocity[s],
+            root_angular_velocity=self.root_angular_velocity[s],
+            key_body_names=list(self.key_body_names),
+            key_body_positions=self.key_body_positions[s],
+            part_index=dict(self.part_index),
+            object_names=list(self.object_names),
+            object_poses=None if self.object_poses is None else self.object_poses[s],
+            contact_names=list(self.contact_names),
+            contacts=None if self.contacts is None else self.contacts[s],
+        )
+
+    def save(self, path: str | Path) -> Path:
+        """Write the clip as `.npz`, atomically (no partial file on failure)."""
+        path = Path(path)
+        arrays = {
+            "format_version": np.array(FORMAT_VERSION),
+            "embodiment": np.array(self.embodiment),
+            "source": np.array(self.source),
+            "fps": np.array(float(self.fps)),
+            "joint_names": np.array(self.joint_names, dtype=str),
+            "joint_positions": np.asarray(self.joint_positions, dtype=np.float64),
+            "joint_velocities": np.asarray(self.joint_velocities, dtype=np.float64),
+            "root_position": np.asarray(self.root_position, dtype=np.float64),
+            "root_quaternion": np.asarray(self.root_quaternion, dtype=np.float64),
+            "root_linear_velocity": np.asarray(self.root_linear_velocity, dtype=np.float64),
+            "root_angular_velocity": np.asarray(self.root_angular_velocity, dtype=np.float64),
+            "key_body_names": np.array(self.key_body_names, dtype=str),
+            "key_body_positions": np.asarray(self.key_body_positions, dtype=np.float64),
+            "part_index": np.array(json.dumps(self.part_index, sort_keys=True)),
+            "object_names": np.array(self.object_names, dtype=str),
+            "object_poses": np.zeros((self.num_frames, 0, 7))
+            if self.object_poses is None
+            else np.asarray(self.object_poses, dtype=np.float64),
+            "contact_names": np.array(self.contact_names, dtype=str),
+            "contacts": np.zeros((self.num_frames, 0), dtype=bool)
+            if self.contacts is None
+            else np.asarray(self.contacts, dtype=bool),
+        }
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".npz", dir=path.parent)
+        os.close(fd)
+        try:
+            np.savez(tmp, **arrays)
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(tmp, 0o666 & ~umask)
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        return path
+
+    @staticmethod
+    def load(path: str | Path) -> "MotionClip":
+        """Read a clip; a file that is not a valid clip raises `ClipFormatError`."""
+        path = Path(path)
+        if not path.is_file():
+            raise ClipFormatError(f"{path}: no such file")
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                arrays = {key: data[key] for key in data.files}
+        except (OSError, ValueError, zipfile.BadZipFile, EOFError) as error:
+            raise ClipFormatError(f"{path}: not a readable .npz clip ({type(error).__name__})") from None
+        missing = [key for key in _REQUIRED if key not in arrays]
+        if missing:
+            raise ClipFormatError(f"{path}: not a hotu_drake clip (missing {', '.join(missing[:3])})")
+        version = int(arrays["format_version"])
+        if version != FORMAT_VERSION:
+            raise ClipFormatError(f"{path}: clip format version {version} is not supported (expected 1)")
+        try:
+            part_index = json.loads(str(arrays.get("part_index", "{}")))
+        except json.JSONDecodeError:
+            raise ClipFormatError(f"{path}: part_index is not valid JSON") from None
+        object_names = [str(s) for s in arrays.get("object_names", [])]
+        contact_names = [str(s) for s in arrays.get("contact_names", [])]
+        clip = MotionClip.__new__(MotionClip)
+        clip.__dict__.update(
+            embodiment=str(arrays["embodiment"]),
+            source=str(arrays["source"]),
+            fps=float(arrays["fps"]),
+            joint_names=[str(s) for s in arrays["joint_names"]],
+            joint_positions=arrays["joint_positions"],
+            joint_velocities=arrays["joint_velocities"],
+            root_position=arrays["root_position"],
+            root_quaternion=arrays["root_quaternion"],
+            root_linear_velocity=arrays["root_linear_velocity"],
+            root_angular_velocity=arrays["root_angular_velocity"],
+            key_body_names=[str(s) for s in arrays["key_body_names"]],
+            key_body_positions=arrays["key_body_positions"],
+            part_index=part_index,
+            object_names=object_names,
+            object_poses=arrays.get("object_poses") if object_names else None,
+            contact_names=contact_names,
+            contacts=arrays.get("contacts") if contact_names else None,
+        )
+        clip.validate(str(path))
+        return clip
