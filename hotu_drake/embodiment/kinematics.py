@@ -121,3 +121,44 @@ def balance_over_feet(spec: EmbodimentSpec) -> dict[str, float]:
     if abs(error_b) > 1e-3 or abs(b) > 0.5:
         raise ValueError(f"{spec.name}: cannot balance the standing pose over the feet")
     return {k: round(v, 4) for k, v in shifted(b).items()}
+
+
+def _axis_angle_batch(axis: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """(T, 3, 3) rotations about a fixed unit `axis` by `angles` (T,)."""
+    x, y, z = axis
+    k = np.array([[0, -z, y], [z, 0, -x], [-y, x, 0]])
+    c, s = np.cos(angles)[:, None, None], np.sin(angles)[:, None, None]
+    return np.eye(3) + s * k + (1 - c) * (k @ k)
+
+
+def batch_link_poses(
+    spec: EmbodimentSpec,
+    joint_names: list[str],
+    q: np.ndarray,
+    root_rotation: np.ndarray | None = None,
+    root_position: np.ndarray | None = None,
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """World rotations (T, 3, 3) and positions (T, 3) of every link over T frames.
+
+    `q` is (T, len(joint_names)); joints not named stay at zero. The root
+    pose defaults to identity at the origin (ignored for a fixed base).
+    """
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    frames = q.shape[0]
+    column = {name: i for i, name in enumerate(joint_names)}
+    identity = np.broadcast_to(np.eye(3), (frames, 3, 3))
+    poses = {"world": (identity, np.zeros((frames, 3)))}
+    if spec.floating_base:
+        rot = identity if root_rotation is None else np.asarray(root_rotation, dtype=float)
+        pos = np.zeros((frames, 3)) if root_position is None else np.asarray(root_position, dtype=float)
+        poses[spec.root.name] = (rot, pos)
+    for j in spec.joints:
+        rot, pos = poses[j.parent]
+        pos_joint = pos + rot @ np.asarray(j.offset)
+        values = q[:, column[j.name]] if j.name in column else np.zeros(frames)
+        axis = np.asarray(j.axis)
+        if j.kind == "revolute":
+            poses[j.child] = (rot @ _axis_angle_batch(axis, values), pos_joint)
+        else:
+            poses[j.child] = (rot, pos_joint + (rot @ axis) * values[:, None])
+    return poses
