@@ -82,6 +82,7 @@ class SpecBuilder:
         self.links: list[LinkSpec] = []
         self.joints: list[JointSpec] = []
         self._origin: dict[str, np.ndarray] = {"world": np.zeros(3)}
+        self.hand_mounts: dict[str, tuple[str, np.ndarray, np.ndarray]] = {}
 
     def origin(self, link: str) -> np.ndarray:
         """World position of a link's frame at q = 0."""
@@ -191,6 +192,7 @@ class SpecBuilder:
             floating_base=floating_base,
             hands=self.hands,
             notes=notes,
+            hand_mounts=dict(self.hand_mounts),
         )
         if floating_base and {"left_foot", "right_foot"} <= key_bodies.keys():
             spec.standing_pose = balance_over_feet(spec)

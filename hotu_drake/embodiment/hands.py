@@ -47,6 +47,10 @@ class HandFrame:
         v = self.rotation @ np.asarray(v_hand, dtype=float)
         return mirror_point(v) if side == "left" else v
 
+    def linear_map(self, side: str) -> np.ndarray:
+        """Hand-frame vector -> world vector at q = 0 (a reflection on the left)."""
+        return self.rotation if side == "right" else _M @ self.rotation
+
     def axis(self, side: str, a_hand) -> np.ndarray:
         a = self.rotation @ np.asarray(a_hand, dtype=float)
         return mirror_axis(a) if side == "left" else a
@@ -128,6 +132,34 @@ def _add_finger(
             prefix=f"{side}_{finger.name}",
         )
         parent = child
+
+
+def register_hand(b: SpecBuilder, side: str, model: str, hand_link: str, frame: HandFrame, mount=None) -> None:
+    """Record where a hand model sits, so its landmarks can be placed (both variants)."""
+    root = b.origin(hand_link) if mount is None else np.asarray(mount, dtype=float)
+    b.hand_mounts[side] = (model, frame.linear_map(side), root)
+
+
+# Landmarks of each hand model in its (right-hand) frame: the end of the palm
+# ("hand", at the middle knuckle) and the base knuckle of each finger.
+HAND_LANDMARKS: dict[str, dict[str, tuple[float, float, float]]] = {
+    "qbhand": {
+        "hand": (-0.0045, 0.0005, 0.144),
+        "thumb_1": (-0.0485, 0.0165, 0.0975),
+        "index_1": (-0.0245, 0.0005, 0.137),
+        "middle_1": (-0.0045, 0.0005, 0.144),
+        "ring_1": (0.0155, 0.0005, 0.137),
+        "little_1": (0.0355, 0.0005, 0.132),
+    },
+    "walker": {
+        "hand": (0.1578, 0.0104, 0.0091),
+        "thumb_1": (0.0807, 0.0431, 0.0246),
+        "index_1": (0.1527, 0.0106, 0.0333),
+        "middle_1": (0.1578, 0.0104, 0.0091),
+        "ring_1": (0.1517, 0.0102, -0.0146),
+        "little_1": (0.1468, 0.0088, -0.0379),
+    },
+}
 
 
 # --- qb SoftHand (UDH, NAVIAI, H1, CURI): 29 joints per hand --------------------

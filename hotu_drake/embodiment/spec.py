@@ -228,6 +228,9 @@ class EmbodimentSpec:
     floating_base: bool = True
     hands: str = "full"
     notes: str = ""
+    # side -> (hand model, 3x3 map from the hand model's frame to the world at
+    # q = 0 (mirrored on the left), hand root position in the world at q = 0).
+    hand_mounts: dict[str, tuple[str, np.ndarray, np.ndarray]] = field(default_factory=dict)
 
     @property
     def root(self) -> LinkSpec:

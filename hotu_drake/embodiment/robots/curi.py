@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from hotu_drake.embodiment.builder import Dof, Drive, SpecBuilder, mirror_axis, mirror_point
-from hotu_drake.embodiment.hands import QBHAND_PALM_MASS, HandFrame, add_qbhand, qbhand_palm
+from hotu_drake.embodiment.hands import QBHAND_PALM_MASS, HandFrame, add_qbhand, qbhand_palm, register_hand
 from hotu_drake.embodiment.spec import BASE_PART, EmbodimentSpec, box, capsule, cylinder, sphere
 
 X, Y, Z = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
@@ -149,6 +149,7 @@ def build(hands: str = "full") -> EmbodimentSpec:
                 Drive(effort, velocity, kp, kd), part, mass, visuals, collisions, side,
             )
             parent = child
+        register_hand(b, side, "qbhand", f"{side}_hand", hand_frame, mount=world(flange))
         if hands == "full":
             add_qbhand(b, side, f"{side}_hand", hand_frame, mount=world(flange))
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from hotu_drake.embodiment.builder import Dof, Drive, SpecBuilder, mirror_limits
-from hotu_drake.embodiment.hands import QBHAND_PALM_MASS, HandFrame, add_qbhand, qbhand_palm
+from hotu_drake.embodiment.hands import QBHAND_PALM_MASS, HandFrame, add_qbhand, qbhand_palm, register_hand
 from hotu_drake.embodiment.spec import EmbodimentSpec, box, capsule, cylinder, sphere
 
 X, Y, Z = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
@@ -80,6 +80,7 @@ def build(hands: str = "full") -> EmbodimentSpec:
             ],
             Drive(50, 10, 100, 10, armature=0.01), "wrist", hand_mass, hand_visuals, hand_collisions, side,
         )
+        register_hand(b, side, "qbhand", f"{side}_hand", _HAND_FRAME)
         if hands == "full":
             add_qbhand(b, side, f"{side}_hand", _HAND_FRAME)
 

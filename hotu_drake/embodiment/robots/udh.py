@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from hotu_drake.embodiment.builder import Dof, Drive, SpecBuilder, mirror_limits, pick
-from hotu_drake.embodiment.hands import QBHAND_PALM_MASS, HandFrame, add_qbhand, qbhand_palm
+from hotu_drake.embodiment.hands import QBHAND_PALM_MASS, HandFrame, add_qbhand, qbhand_palm, register_hand
 from hotu_drake.embodiment.spec import EmbodimentSpec, box, capsule, sphere
 
 NOMINAL_HEIGHT = 1.61
@@ -98,6 +98,7 @@ def build(hands: str = "full", height: float = NOMINAL_HEIGHT, mass: float | Non
             [Dof("x", X, -1.571, 1.571), Dof("y", Y, -1.571, 1.571), Dof("z", Z, -1.571, 1.571)],
             drive(50, 100, 10, 0.003), "wrist", hand_mass, hand_visuals, hand_collisions, side,
         )
+        register_hand(b, side, "qbhand", f"{side}_hand", _HAND_FRAME)
         if hands == "full":
             add_qbhand(b, side, f"{side}_hand", _HAND_FRAME)
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from hotu_drake.embodiment.builder import Dof, Drive, SpecBuilder, pick
-from hotu_drake.embodiment.hands import WALKER_PALM_MASS, HandFrame, add_walker_hand, walker_palm
+from hotu_drake.embodiment.hands import WALKER_PALM_MASS, HandFrame, add_walker_hand, register_hand, walker_palm
 from hotu_drake.embodiment.spec import EmbodimentSpec, box, capsule, sphere
 
 X, Y, Z = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
@@ -82,6 +82,7 @@ def build(hands: str = "full") -> EmbodimentSpec:
             Drive(2.5, 3.142, KP, 5), "wrist", 0.167 + 0.056 + WALKER_PALM_MASS,
             hand_visuals, hand_collisions, side,
         )
+        register_hand(b, side, "walker", f"{side}_hand", _HAND_FRAME)
         if hands == "full":
             add_walker_hand(b, side, f"{side}_hand", _HAND_FRAME)
 
