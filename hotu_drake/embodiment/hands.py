@@ -162,6 +162,20 @@ HAND_LANDMARKS: dict[str, dict[str, tuple[float, float, float]]] = {
 }
 
 
+# Joints that move together (joint indices within one finger): the qb
+# SoftHand's rolling-contact "virtual" joints copy their partners 1:1 (Q1).
+COUPLED_JOINTS: dict[str, dict[str, tuple[tuple[int, int], ...]]] = {
+    "qbhand": {
+        "thumb": ((1, 2), (3, 4)),
+        "index": ((0, 1), (2, 3), (4, 5)),
+        "middle": ((0, 1), (2, 3), (4, 5)),
+        "ring": ((0, 1), (2, 3), (4, 5)),
+        "little": ((0, 1), (2, 3), (4, 5)),
+    },
+    "walker": {},
+}
+
+
 # --- qb SoftHand (UDH, NAVIAI, H1, CURI): 29 joints per hand --------------------
 
 QBHAND_PALM_MASS = 0.90  # base flange 0.45 + palm 0.45 (facts Q1)

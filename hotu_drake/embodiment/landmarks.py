@@ -53,6 +53,7 @@ def _head(spec: EmbodimentSpec, out: dict) -> None:
         center, radius = np.array([0.0, 0.0, 0.1]), 0.08
     out["head"] = (head_link, center)
     out["head_top"] = (head_link, center + [0.0, 0.0, radius])
+    out["head_front"] = (head_link, center + [0.1, 0.0, 0.0])
     neck = _first_joint(spec, "neck_")
     if neck is not None:
         out["neck"] = _joint_point(spec, neck)

@@ -18,7 +18,8 @@ HUMAN = "human"
 SIDES = ("left", "right")
 FINGERS = ("thumb", "index", "middle", "ring", "little")
 
-AXIAL_LANDMARKS = ("pelvis", "spine", "chest", "neck", "head", "head_top")
+# head_front: a point 10 cm in front of the head centre (gives the head's yaw).
+AXIAL_LANDMARKS = ("pelvis", "spine", "chest", "neck", "head", "head_top", "head_front")
 LIMB_LANDMARKS = ("shoulder", "elbow", "wrist", "hand", "hip", "knee", "ankle", "toe")
 # Finger points: 1 = base knuckle, 2, 3 = the next joints, 4 = tip.
 FINGER_POINTS = (1, 2, 3, 4)

@@ -1,0 +1,1 @@
+"""Kinematic retargeting: human -> UDH -> every robot, part by part."""

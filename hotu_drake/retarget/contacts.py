@@ -1,0 +1,74 @@
+"""Foot contact phases of a source motion, and the soles of an embodiment."""
+
+import numpy as np
+
+from hotu_drake.embodiment.spec import EmbodimentSpec
+from hotu_drake.retarget.tree import Pose, Tree
+
+CONTACT_HEIGHT = 0.04  # m above the clip's floor
+CONTACT_SPEED = 0.25  # m/s horizontal
+MIN_PHASE_FRAMES = 3
+
+
+def _clean(flags: np.ndarray, min_frames: int) -> np.ndarray:
+    """Drop contact and flight phases shorter than `min_frames`."""
+    flags = flags.copy()
+    for value in (True, False):
+        start = None
+        for t in range(len(flags) + 1):
+            inside = t < len(flags) and flags[t] == value
+            if inside and start is None:
+                start = t
+            elif not inside and start is not None:
+                if t - start < min_frames and start > 0 and t < len(flags):
+                    flags[start:t] = not value
+                start = None
+    return flags
+
+
+def detect_foot_contacts(landmarks: dict[str, np.ndarray], fps: float) -> dict[str, np.ndarray]:
+    """side -> (T,) bool: the foot is low and (nearly) still."""
+    heights = np.stack(
+        [np.minimum(landmarks[f"{s}_toe"][:, 2], landmarks[f"{s}_ankle"][:, 2]) for s in ("left", "right")]
+    )
+    floor = np.percentile(heights.min(axis=0), 5)
+    out = {}
+    for i, side in enumerate(("left", "right")):
+        middle = 0.5 * (landmarks[f"{side}_toe"] + landmarks[f"{side}_ankle"])
+        speed = (
+            np.linalg.norm(np.gradient(middle[:, :2], 1.0 / fps, axis=0), axis=1) if len(middle) > 1 else np.zeros(1)
+        )
+        low = heights[i] - floor < CONTACT_HEIGHT
+        out[side] = _clean(low & (speed < CONTACT_SPEED), MIN_PHASE_FRAMES)
+    return out
+
+
+class Soles:
+    """The lowest points of each foot's collision shapes."""
+
+    def __init__(self, spec: EmbodimentSpec, tree: Tree):
+        self.feet = {}
+        for side in ("left", "right"):
+            name = spec.key_bodies.get(f"{side}_foot")
+            if name is None:
+                continue
+            points, radii = [], []
+            for g in spec.link(name).collisions:
+                center = np.asarray(g.position, dtype=float)
+                if g.shape == "box":
+                    for corner in np.array(np.meshgrid(*[[-s / 2, s / 2] for s in g.size])).reshape(3, -1).T:
+                        points.append(center + g.rotation() @ corner)
+                        radii.append(0.0)
+                elif g.shape == "sphere":
+                    points.append(center)
+                    radii.append(g.size[0])
+                else:
+                    half = g.rotation() @ np.array([0.0, 0.0, g.size[1] / 2])
+                    points += [center + half, center - half]
+                    radii += [g.size[0], g.size[0]]
+            self.feet[side] = (tree.link_index[name], np.array(points), np.array(radii))
+
+    def lowest(self, pose: Pose, side: str) -> float:
+        link, points, radii = self.feet[side]
+        z = pose.positions[link][2] + points @ pose.rotations[link][2]
+        return float(np.min(z - radii))

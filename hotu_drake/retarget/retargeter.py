@@ -1,0 +1,382 @@
+"""Kinematic retargeting of landmark motion onto one embodiment.
+
+Per frame: the floating base follows the source pelvis (scaled by the ratio
+of leg lengths); every functional part then solves its partial IK
+(proximal parts first) against directions and body frames of the source;
+planted feet are pinned where they landed and the root height keeps the
+soles on the floor. Velocities are finite differences of the positions.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hotu_drake.embodiment import Embodiment
+from hotu_drake.embodiment.hands import COUPLED_JOINTS
+from hotu_drake.embodiment.landmarks import landmark_placements
+from hotu_drake.motion.clip import MotionClip
+from hotu_drake.motion.human import landmarks_of
+from hotu_drake.motion.rotations import angular_velocity, finite_difference, make_continuous, matrix_to_quat
+from hotu_drake.retarget import frames
+from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
+from hotu_drake.retarget.part_ik import PartProblem
+from hotu_drake.retarget.targets import BendPlane, Coupling, Direction, Landmarks, Orientation, Position
+from hotu_drake.retarget.tree import Tree, cross
+
+FINGERS = ("thumb", "index", "middle", "ring", "little")
+SIDES = ("left", "right")
+
+
+@dataclass
+class RetargetOptions:
+    """Knobs of the per-frame solve."""
+
+    sweeps: int = 2  # at most this many passes over all parts per frame
+    tolerance: float = 2e-3  # stop the passes once no joint moves more (rad)
+    first_frame_sweeps: int = 12  # from the standing pose to the first frame
+    regularization: float = 1e-3
+    smoothness: float = 1e-2
+    lock_feet: bool = True
+
+
+@dataclass
+class _Part:
+    name: str
+    level: int  # 0 = proximal (torso, shoulder, hip) ... 3 = fingers
+    problem: PartProblem
+    targets: list  # (target, source key)
+
+
+def _source_frames(src: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Body frames of the source over all frames, where its landmarks allow."""
+    out = {"pelvis": frames.pelvis_frame(src), "chest": frames.chest_frame(src)}
+    if "head_top" in src:
+        out["head"] = frames.head_frame(src)
+    lateral = out["pelvis"][:, :, 1]
+    for side in SIDES:
+        if all(f"{side}_{n}" in src for n in ("wrist", "hand", "index_1", "little_1")):
+            out[f"{side}_hand"] = frames.hand_frame(src, side)
+        if f"{side}_toe" in src:
+            out[f"{side}_foot"] = frames.foot_frame(src, side, lateral)
+    return out
+
+
+def _leg_length(p: dict[str, np.ndarray]) -> float:
+    lengths = [
+        np.linalg.norm(p[f"{s}_knee"] - p[f"{s}_hip"], axis=-1)
+        + np.linalg.norm(p[f"{s}_ankle"] - p[f"{s}_knee"], axis=-1)
+        for s in SIDES
+    ]
+    return float(np.median(np.concatenate([np.atleast_1d(x) for x in lengths])))
+
+
+class Retargeter:
+    """Retargets landmark motion (a human or the UDH) onto one embodiment."""
+
+    def __init__(self, embodiment: Embodiment, source_landmarks: set[str], options: RetargetOptions | None = None):
+        self.embodiment = embodiment
+        self.options = options or RetargetOptions()
+        self.spec = embodiment.spec
+        self.tree = Tree(self.spec)
+        self.marks = Landmarks(self.tree, landmark_placements(self.spec))
+        self.q_rest = np.zeros(len(self.tree.joint_names))
+        rest_pose = self.tree.forward(self.q_rest)
+        self.rest = self.marks.all_positions(rest_pose)
+        self.rest_frames = self._rest_frames()
+        self.soles = Soles(self.spec, self.tree)
+        self.legged = "left_ankle" in self.marks and "left_ankle" in source_landmarks
+        self.parts = self._build_parts(set(source_landmarks))
+        self._lock = self._build_leg_locks() if self.legged else {}
+        self.base = [self.tree.joint_index[n] for n in embodiment.base_joints]
+        fingers = set(embodiment.finger_joints)
+        body = [i for i, n in enumerate(self.tree.joint_names) if n not in fingers]
+        self._body_groups = self.tree.depth_groups(body)
+
+    # --- set-up -------------------------------------------------------------------
+
+    def _rest_frames(self) -> dict[str, np.ndarray]:
+        p = self.rest
+        out = {"pelvis": frames.pelvis_frame(p), "chest": frames.chest_frame(p)}
+        if "head_top" in p:
+            out["head"] = frames.head_frame(p)
+        for side in SIDES:
+            if all(f"{side}_{n}" in p for n in ("wrist", "hand", "index_1", "little_1")):
+                out[f"{side}_hand"] = frames.hand_frame(p, side)
+            if f"{side}_toe" in p:
+                out[f"{side}_foot"] = frames.foot_frame(p, side, out["pelvis"][:, 1])
+        return out
+
+    def _joints(self, prefix: str) -> list[int]:
+        return [i for i, n in enumerate(self.tree.joint_names) if n.startswith(prefix)]
+
+    def _link_of(self, landmark: str) -> int:
+        return self.marks.items[landmark][0]
+
+    def _hinge_sign(self, joint: int, start: str, mid: str, end: str) -> float:
+        """Which way a hinge's axis points relative to its limb's bend normal."""
+        spec_joint = self.spec.joints[joint]
+        flex = spec_joint.upper if abs(spec_joint.upper) >= abs(spec_joint.lower) else spec_joint.lower
+        q = self.q_rest.copy()
+        q[joint] = 0.5 * flex
+        pose = self.tree.forward(q)
+        a, b, c = (self.marks.position(pose, n) for n in (start, mid, end))
+        normal = np.cross(b - a, c - b)
+        return 1.0 if np.dot(normal, pose.joint_axes[joint]) >= 0 else -1.0
+
+    def _problem(self, name: str, joints: list[int]) -> PartProblem:
+        return PartProblem(
+            name,
+            joints,
+            self.embodiment.position_lower[joints],
+            self.embodiment.position_upper[joints],
+            self.options.regularization,
+            self.options.smoothness,
+        )
+
+    def _build_parts(self, src: set[str]) -> list[_Part]:
+        parts: list[_Part] = []
+        both = src & set(self.marks.items)
+
+        def add(name: str, level: int, joints: list[int], targets: list) -> None:
+            targets = [t for t in targets if t is not None]
+            if joints and targets:
+                parts.append(_Part(name, level, self._problem(name, joints), targets))
+
+        root_link = self.tree.root
+        hips_on_root = self._link_of("left_hip") == root_link if "left_hip" in self.marks else False
+        self.root_frame = "pelvis" if hips_on_root or "left_hip" not in self.marks else "chest"
+        torso_frame = "chest" if self.root_frame == "pelvis" else "pelvis"
+        torso_link = self._link_of("left_shoulder" if torso_frame == "chest" else "left_hip")
+        add("torso", 0, self._joints("torso_"), [(Orientation(torso_link, self.rest_frames[torso_frame]), torso_frame)])
+        if "head" in self.rest_frames and "head_top" in src:
+            head_link = self._link_of("head")
+            add("neck", 1, self._joints("neck_"), [(Orientation(head_link, self.rest_frames["head"]), "head")])
+        for side in SIDES:
+            s = f"{side}_"
+            elbow = self._joints(f"{s}elbow_")
+            bend = None
+            if elbow and {f"{s}shoulder", f"{s}elbow", f"{s}wrist"} <= both:
+                sign = self._hinge_sign(elbow[0], f"{s}shoulder", f"{s}elbow", f"{s}wrist")
+                bend = (BendPlane(elbow[0], sign), ("bend", f"{s}shoulder", f"{s}elbow", f"{s}wrist"))
+            add(
+                f"{s}shoulder",
+                0,
+                self._joints(f"{s}shoulder_"),
+                [self._direction(both, f"{s}shoulder", f"{s}elbow"), bend],
+            )
+            add(f"{s}elbow", 1, elbow, [self._direction(both, f"{s}elbow", f"{s}wrist")])
+            hand = f"{s}hand"
+            if hand in self.rest_frames and {f"{s}index_1", f"{s}little_1", hand} <= src:
+                wrist_targets = [(Orientation(self._link_of(hand), self.rest_frames[hand]), hand)]
+            else:
+                wrist_targets = [self._direction(both, f"{s}wrist", hand)]
+            add(f"{s}wrist", 2, self._joints(f"{s}wrist_"), wrist_targets)
+            model = self.spec.hand_mounts.get(side, ("none",))[0]
+            for finger in FINGERS:
+                targets = [self._finger(both, side, finger, i) for i in (1, 2, 3)]
+                if any(targets):
+                    pairs = COUPLED_JOINTS.get(model, {}).get(finger, ())
+                    targets += [(Coupling(a, b), "q") for a, b in pairs]
+                add(f"{s}{finger}", 3, self._joints(f"{s}{finger}_"), targets)
+            knee = self._joints(f"{s}knee_")
+            bend = None
+            if knee and {f"{s}hip", f"{s}knee", f"{s}ankle"} <= both:
+                sign = self._hinge_sign(knee[0], f"{s}hip", f"{s}knee", f"{s}ankle")
+                bend = (BendPlane(knee[0], sign), ("bend", f"{s}hip", f"{s}knee", f"{s}ankle"))
+            add(f"{s}hip", 0, self._joints(f"{s}hip_"), [self._direction(both, f"{s}hip", f"{s}knee"), bend])
+            add(f"{s}knee", 1, knee, [self._direction(both, f"{s}knee", f"{s}ankle")])
+            # Ankle to ball of the foot fixes pitch and yaw; roll is not observable
+            # from two points, so it stays put (and planted feet are levelled).
+            add(f"{s}ankle", 2, self._joints(f"{s}ankle_"), [self._direction(both, f"{s}ankle", f"{s}toe")])
+        return sorted(parts, key=lambda p: p.level)
+
+    def _direction(self, both: set[str], start: str, end: str):
+        if {start, end} <= both:
+            return Direction(start, end), ("dir", start, end)
+        return None
+
+    def _finger(self, both: set[str], side: str, finger: str, i: int):
+        start, end = f"{side}_{finger}_{i}", f"{side}_{finger}_{i + 1}"
+        hand = f"{side}_hand"
+        if {start, end} <= both and hand in self.rest_frames:
+            return Direction(start, end, 0.5), ("finger", start, end, hand)
+        return None
+
+    def _build_leg_locks(self) -> dict[str, tuple[PartProblem, Position, Orientation]]:
+        locks = {}
+        for side in SIDES:
+            joints = self._joints(f"{side}_hip_") + self._joints(f"{side}_knee_") + self._joints(f"{side}_ankle_")
+            foot = f"{side}_foot"
+            if joints and foot in self.rest_frames:
+                orientation = Orientation(self._link_of(f"{side}_toe"), self.rest_frames[foot], 1.0)
+                locks[side] = (self._problem(f"{side}_leg_lock", joints), Position(f"{side}_ankle", 10.0), orientation)
+        return locks
+
+    # --- per frame ----------------------------------------------------------------
+
+    def _target(self, key, t: int, src: dict, src_frames: dict, pose) -> np.ndarray:
+        kind = key if isinstance(key, str) else key[0]
+        if kind == "dir":
+            v = src[key[2]][t] - src[key[1]][t]
+            return v / max(np.linalg.norm(v), 1e-9)
+        if kind == "bend":
+            a, b, c = (src[n][t] for n in key[1:])
+            u1, u2 = b - a, c - b
+            return cross(u1 / max(np.linalg.norm(u1), 1e-9), u2 / max(np.linalg.norm(u2), 1e-9))
+        if kind == "finger":
+            v = src[key[2]][t] - src[key[1]][t]
+            v = v / max(np.linalg.norm(v), 1e-9)
+            hand = key[3]
+            robot_hand = pose.rotations[self._link_of(hand)] @ self.rest_frames[hand]
+            return robot_hand @ (src_frames[hand][t].T @ v)
+        return src_frames[key][t]  # a body frame
+
+    def _solve_parts(self, q, q_previous, root_rotation, root_position, t, src, src_frames, sweeps) -> None:
+        for _ in range(sweeps):
+            level = None
+            pose = None
+            largest = 0.0
+            for part in self.parts:
+                if part.level != level:  # proximal parts first; fingers need the full tree
+                    groups = None if part.level >= 3 else self._body_groups
+                    pose = self.tree.forward(q, root_rotation, root_position, groups)
+                    level = part.level
+                rows = [
+                    target.rows(
+                        self.marks,
+                        pose,
+                        part.problem.joints,
+                        q if key == "q" else self._target(key, t, src, src_frames, pose),
+                    )
+                    for target, key in part.targets
+                ]
+                step = part.problem.step(rows, q[part.problem.joints], q_previous[part.problem.joints])
+                q[part.problem.joints] += step
+                largest = max(largest, float(np.max(np.abs(step))))
+            if largest < self.options.tolerance:
+                break
+
+    def retarget(self, source: MotionClip) -> MotionClip:
+        """The source (a human or UDH clip, through its landmarks) on this embodiment."""
+        src = landmarks_of(source) if source.embodiment == "human" else _landmarks_of_embodiment_clip(source)
+        return self.retarget_landmarks(src, source.fps, source)
+
+    def retarget_landmarks(
+        self, src: dict[str, np.ndarray], fps: float, source: MotionClip | None = None
+    ) -> MotionClip:
+        frames_count = len(src["pelvis"])
+        src_frames = _source_frames(src)
+        contacts = detect_foot_contacts(src, fps) if self.legged else {}
+        ratio = _leg_length(self.rest) / _leg_length(src) if self.legged else 1.0
+        root_rest = self.rest_frames[self.root_frame]
+        pelvis_offset = self.rest["pelvis"] - self.tree.forward(self.q_rest).positions[self.tree.root]
+
+        q = self.embodiment.standing_pose.copy()
+        q_previous = q.copy()
+        out_q = np.zeros((frames_count, len(q)))
+        out_rotation = np.zeros((frames_count, 3, 3))
+        out_position = np.zeros((frames_count, 3))
+        anchors: dict[str, np.ndarray] = {}
+        height_offset = 0.0
+        for t in range(frames_count):
+            root_rotation = src_frames[self.root_frame][t] @ root_rest.T
+            pelvis = src["pelvis"][t] * ratio
+            root_position = pelvis - root_rotation @ pelvis_offset
+            if not self.spec.floating_base:  # planar base: follow the pelvis on the floor
+                heading = frames.heading(src_frames["pelvis"][t])
+                q[self.base] = [src["pelvis"][t][0], src["pelvis"][t][1], np.arctan2(heading[1, 0], heading[0, 0])]
+                root_rotation, root_position = np.eye(3), np.zeros(3)
+            root_position[2] += height_offset
+            sweeps = self.options.first_frame_sweeps if t == 0 else self.options.sweeps
+            self._solve_parts(q, q_previous, root_rotation, root_position, t, src, src_frames, sweeps)
+            if self.legged:
+                root_position, height_offset = self._feet(
+                    q, root_rotation, root_position, t, contacts, anchors, height_offset
+                )
+            np.clip(q, self.embodiment.position_lower, self.embodiment.position_upper, out=q)
+            out_q[t], out_rotation[t], out_position[t] = q, root_rotation, root_position
+            q_previous = q.copy()
+        return self._clip(out_q, out_rotation, out_position, fps, source, contacts)
+
+    def _feet(self, q, root_rotation, root_position, t, contacts, anchors, height_offset):
+        """Keep planted soles on the floor and where they landed."""
+        pose = self.tree.forward(q, root_rotation, root_position)
+        planted = [s for s in SIDES if contacts[s][t]]
+        for side in SIDES:
+            if side not in planted:
+                anchors.pop(side, None)
+        if planted:
+            lift = -min(self.soles.lowest(pose, s) for s in planted)
+            root_position = root_position + [0.0, 0.0, lift]
+            height_offset += lift
+            pose = self.tree.forward(q, root_rotation, root_position)
+            if self.options.lock_feet:
+                for side in planted:
+                    anchors.setdefault(side, self.marks.position(pose, f"{side}_ankle").copy())
+                # The earliest planted foot carries the body: shift the root onto it.
+                first = planted[0]
+                drift = anchors[first] - self.marks.position(pose, f"{first}_ankle")
+                root_position = root_position + [drift[0], drift[1], 0.0]
+                for side in planted:
+                    foot = pose.rotations[self._link_of(f"{side}_toe")] @ self.rest_frames[f"{side}_foot"]
+                    self._lock_leg(side, q, root_rotation, root_position, anchors[side], foot)
+                pose = self.tree.forward(q, root_rotation, root_position)
+        feet = [self.soles.lowest(pose, s) for s in SIDES if s in self.soles.feet]
+        if feet and min(feet) < 0.0:  # never below the floor
+            root_position = root_position + [0.0, 0.0, -min(feet)]
+            height_offset -= min(feet)
+        return root_position, height_offset
+
+    def _lock_leg(self, side, q, root_rotation, root_position, anchor, foot_frame) -> None:
+        """Move the leg so the ankle returns to its anchor, keeping the foot's orientation."""
+        if side not in self._lock:
+            return
+        problem, position, orientation = self._lock[side]
+        for _ in range(2):
+            pose = self.tree.forward(q, root_rotation, root_position)
+            joints = problem.joints
+            rows = [position.rows(self.marks, pose, joints, anchor)]
+            rows.append(orientation.rows(self.marks, pose, joints, foot_frame))
+            q[joints] += problem.step(rows, q[joints], q[joints])
+
+    def _clip(self, q, rotations, positions, fps, source, contacts) -> MotionClip:
+        quaternions = make_continuous(matrix_to_quat(rotations))
+        key_names = list(self.embodiment.key_bodies.values())
+        key_names = list(dict.fromkeys(key_names))
+        key_index = [self.tree.link_index[n] for n in key_names]
+        key_positions = np.zeros((len(q), len(key_names), 3))
+        for t in range(len(q)):
+            pose = self.tree.forward(q[t], rotations[t], positions[t])
+            key_positions[t] = pose.positions[key_index]
+        contact_names = [f"{s}_foot" for s in SIDES if s in contacts]
+        contact_values = np.stack([contacts[s] for s in SIDES if s in contacts], axis=1) if contacts else None
+        return MotionClip(
+            embodiment=self.embodiment.name,
+            source=source.source if source is not None else "landmarks",
+            fps=fps,
+            joint_names=list(self.tree.joint_names),
+            joint_positions=q,
+            joint_velocities=finite_difference(q, fps),
+            root_position=positions,
+            root_quaternion=quaternions,
+            root_linear_velocity=finite_difference(positions, fps),
+            root_angular_velocity=angular_velocity(quaternions, fps),
+            key_body_names=key_names,
+            key_body_positions=key_positions,
+            part_index=self.embodiment.parts,
+            object_names=list(source.object_names) if source is not None else [],
+            object_poses=source.object_poses if source is not None else None,
+            contact_names=contact_names if contacts else [],
+            contacts=contact_values,
+        )
+
+
+def _landmarks_of_embodiment_clip(clip: MotionClip) -> dict[str, np.ndarray]:
+    """Landmarks of a UDH clip (the method retargets human -> UDH -> robot)."""
+    from hotu_drake import embodiment
+    from hotu_drake.motion.udh_skeleton import udh_landmarks
+
+    if clip.embodiment != "udh":
+        raise ValueError(f"can retarget from a human or UDH clip, not from {clip.embodiment!r}")
+    hands = "full" if any(n.endswith("_index_0") for n in clip.joint_names) else "none"
+    return udh_landmarks(embodiment.load("udh", hands), clip)

@@ -1,0 +1,142 @@
+"""What each part's partial IK tries to match, linearised for one frame.
+
+Every target compares a quantity of the embodiment (from its landmarks and
+`Pose`) with the same quantity of the source (from the source's landmarks
+at this frame) and returns the Jacobian rows over a part's joints.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hotu_drake.retarget.tree import Pose, Tree, cross, rotation_vector
+
+
+def _normalize(v: np.ndarray) -> tuple[np.ndarray, float]:
+    n = float(np.linalg.norm(v))
+    return v / max(n, 1e-9), n
+
+
+class Landmarks:
+    """The embodiment's landmarks: (link index, offset) by name."""
+
+    def __init__(self, tree: Tree, placements: dict[str, tuple[str, np.ndarray]]):
+        self.tree = tree
+        self.items = {
+            name: (tree.link_index[link], np.asarray(offset, float)) for name, (link, offset) in placements.items()
+        }
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.items
+
+    def position(self, pose: Pose, name: str) -> np.ndarray:
+        link, offset = self.items[name]
+        return pose.point(link, offset)
+
+    def all_positions(self, pose: Pose) -> dict[str, np.ndarray]:
+        return {name: pose.point(link, offset) for name, (link, offset) in self.items.items()}
+
+    def point_jacobian(self, pose: Pose, name: str, joints: list[int]) -> tuple[np.ndarray, np.ndarray]:
+        """Position of a landmark and its Jacobian over `joints` (3 x k)."""
+        link, offset = self.items[name]
+        point = pose.point(link, offset)
+        return point, self.tree_point_jacobian(pose, link, point, joints)
+
+    def tree_point_jacobian(self, pose: Pose, link: int, point: np.ndarray, joints: list[int]) -> np.ndarray:
+        ancestors = self.tree.link_ancestors[link]
+        jacobian = np.zeros((3, len(joints)))
+        for col, j in enumerate(joints):
+            if j in ancestors:
+                axis = pose.joint_axes[j]
+                if self.tree._revolute[j]:
+                    jacobian[:, col] = cross(axis, point - pose.joint_positions[j])
+                else:
+                    jacobian[:, col] = axis
+        return jacobian
+
+    def rotation_jacobian(self, link: int, pose: Pose, joints: list[int]) -> np.ndarray:
+        ancestors = self.tree.link_ancestors[link]
+        jacobian = np.zeros((3, len(joints)))
+        for col, j in enumerate(joints):
+            if j in ancestors and self.tree._revolute[j]:
+                jacobian[:, col] = pose.joint_axes[j]
+        return jacobian
+
+
+@dataclass
+class Direction:
+    """The unit vector from landmark `start` to `end` should match the source's."""
+
+    start: str
+    end: str
+    weight: float = 1.0
+
+    def rows(self, marks: Landmarks, pose: Pose, joints: list[int], target: np.ndarray):
+        ps, js = marks.point_jacobian(pose, self.start, joints)
+        pe, je = marks.point_jacobian(pose, self.end, joints)
+        u, length = _normalize(pe - ps)
+        jacobian = (np.eye(3) - np.outer(u, u)) @ (je - js) / max(length, 1e-9)
+        return jacobian, target - u, self.weight
+
+
+@dataclass
+class BendPlane:
+    """A hinge's axis (elbow, knee) should be normal to the source's bend plane.
+
+    This sets the twist of the proximal part (shoulder, hip) that the limb's
+    own direction leaves free; its weight fades as the source limb straightens.
+    """
+
+    joint: int
+    sign: float
+    weight: float = 0.5
+
+    def rows(self, marks: Landmarks, pose: Pose, joints: list[int], target: np.ndarray):
+        axis = pose.joint_axes[self.joint]
+        ancestors = marks.tree.ancestors[self.joint][:-1]
+        jacobian = np.zeros((3, len(joints)))
+        for col, j in enumerate(joints):
+            if j in ancestors and marks.tree._revolute[j]:
+                jacobian[:, col] = cross(pose.joint_axes[j], axis)
+        normal, bend = _normalize(target)
+        return jacobian, self.sign * normal - axis, self.weight * min(1.0, bend / 0.3)
+
+
+@dataclass
+class Orientation:
+    """A link's orientation should be source frame x (the link's frame at rest)^T."""
+
+    link: int
+    rest_frame: np.ndarray  # the embodiment's own body frame at q = 0
+    weight: float = 1.0
+
+    def rows(self, marks: Landmarks, pose: Pose, joints: list[int], target: np.ndarray):
+        desired = target @ self.rest_frame.T
+        error = rotation_vector(desired @ pose.rotations[self.link].T)
+        return marks.rotation_jacobian(self.link, pose, joints), error, self.weight
+
+
+@dataclass
+class Coupling:
+    """Two joints of one part should move together (qb SoftHand virtual joints)."""
+
+    first: int  # column within the part
+    second: int
+    weight: float = 1.0
+
+    def rows(self, marks: Landmarks, pose: Pose, joints: list[int], q: np.ndarray):
+        jacobian = np.zeros((1, len(joints)))
+        jacobian[0, self.first], jacobian[0, self.second] = 1.0, -1.0
+        return jacobian, np.array([q[joints[self.second]] - q[joints[self.first]]]), self.weight
+
+
+@dataclass
+class Position:
+    """A landmark should sit at a given world point (a planted foot)."""
+
+    landmark: str
+    weight: float = 1.0
+
+    def rows(self, marks: Landmarks, pose: Pose, joints: list[int], target: np.ndarray):
+        point, jacobian = marks.point_jacobian(pose, self.landmark, joints)
+        return jacobian, target - point, self.weight
