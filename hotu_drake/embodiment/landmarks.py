@@ -122,6 +122,9 @@ def landmark_placements(spec: EmbodimentSpec) -> dict[str, tuple[str, np.ndarray
         _hand(spec, side, out)
         if f"{side}_foot" in spec.key_bodies:
             _foot(spec, side, out)
+    if "left_hip" in out:  # the pelvis point sits between the hip joints, as a mocap root does
+        hips = 0.5 * (_world(spec, out["left_hip"]) + _world(spec, out["right_hip"]))
+        out["pelvis"] = _attach(spec, pelvis, hips)
     shoulders = 0.5 * (_world(spec, out["left_shoulder"]) + _world(spec, out["right_shoulder"]))
     upper_arm = np.linalg.norm(_world(spec, out["left_elbow"]) - _world(spec, out["left_shoulder"]))
     out["chest"] = _attach(spec, spec.key_bodies["torso"], shoulders - [0.0, 0.0, 0.5 * upper_arm])

@@ -31,7 +31,8 @@ SIDES = ("left", "right")
 class RetargetOptions:
     """Knobs of the per-frame solve."""
 
-    sweeps: int = 2  # at most this many passes over all parts per frame
+    sweeps: int = 2  # at most this many passes over all parts per frame (30 fps)
+    high_rate_sweeps: int = 1  # the same at 60 fps or more, where frames are close
     tolerance: float = 2e-3  # stop the passes once no joint moves more (rad)
     first_frame_sweeps: int = 12  # from the standing pose to the first frame
     regularization: float = 1e-3
@@ -96,13 +97,15 @@ class Retargeter:
 
     def _rest_frames(self) -> dict[str, np.ndarray]:
         p = self.rest
-        out = {"pelvis": frames.pelvis_frame(p), "chest": frames.chest_frame(p)}
+        out = {"chest": frames.chest_frame(p)}
+        if "left_hip" in p:
+            out["pelvis"] = frames.pelvis_frame(p)
         if "head_top" in p:
             out["head"] = frames.head_frame(p)
         for side in SIDES:
             if all(f"{side}_{n}" in p for n in ("wrist", "hand", "index_1", "little_1")):
                 out[f"{side}_hand"] = frames.hand_frame(p, side)
-            if f"{side}_toe" in p:
+            if f"{side}_toe" in p and "pelvis" in out:
                 out[f"{side}_foot"] = frames.foot_frame(p, side, out["pelvis"][:, 1])
         return out
 
@@ -268,9 +271,10 @@ class Retargeter:
         src_frames = _source_frames(src)
         contacts = detect_foot_contacts(src, fps) if self.legged else {}
         ratio = _leg_length(self.rest) / _leg_length(src) if self.legged else 1.0
-        root_rest = self.rest_frames[self.root_frame]
+        root_rest = self.rest_frames.get(self.root_frame)
         pelvis_offset = self.rest["pelvis"] - self.tree.forward(self.q_rest).positions[self.tree.root]
 
+        per_frame_sweeps = self.options.high_rate_sweeps if fps >= 60 else self.options.sweeps
         q = self.embodiment.standing_pose.copy()
         q_previous = q.copy()
         out_q = np.zeros((frames_count, len(q)))
@@ -279,15 +283,15 @@ class Retargeter:
         anchors: dict[str, np.ndarray] = {}
         height_offset = 0.0
         for t in range(frames_count):
-            root_rotation = src_frames[self.root_frame][t] @ root_rest.T
-            pelvis = src["pelvis"][t] * ratio
-            root_position = pelvis - root_rotation @ pelvis_offset
-            if not self.spec.floating_base:  # planar base: follow the pelvis on the floor
+            if self.spec.floating_base:
+                root_rotation = src_frames[self.root_frame][t] @ root_rest.T
+                root_position = src["pelvis"][t] * ratio - root_rotation @ pelvis_offset
+            else:  # a planar base follows the pelvis over the floor
                 heading = frames.heading(src_frames["pelvis"][t])
                 q[self.base] = [src["pelvis"][t][0], src["pelvis"][t][1], np.arctan2(heading[1, 0], heading[0, 0])]
                 root_rotation, root_position = np.eye(3), np.zeros(3)
             root_position[2] += height_offset
-            sweeps = self.options.first_frame_sweeps if t == 0 else self.options.sweeps
+            sweeps = self.options.first_frame_sweeps if t == 0 else per_frame_sweeps
             self._solve_parts(q, q_previous, root_rotation, root_position, t, src, src_frames, sweeps)
             if self.legged:
                 root_position, height_offset = self._feet(
@@ -332,7 +336,7 @@ class Retargeter:
         if side not in self._lock:
             return
         problem, position, orientation = self._lock[side]
-        for _ in range(2):
+        for _ in range(1):
             pose = self.tree.forward(q, root_rotation, root_position)
             joints = problem.joints
             rows = [position.rows(self.marks, pose, joints, anchor)]

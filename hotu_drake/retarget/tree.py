@@ -79,6 +79,12 @@ class Tree:
         self._revolute = [j.kind == "revolute" for j in spec.joints]
         self._prismatic = ~np.array(self._revolute, dtype=bool)
         self._offsets = np.array(self._offset).reshape(-1, 3)
+        # Rodrigues' terms per joint: R(q) = I + sin q K + (1 - cos q) K^2.
+        skew = np.zeros((len(self._offset), 3, 3))
+        skew[:, 0, 1], skew[:, 0, 2], skew[:, 1, 2] = -self._axes[:, 2], self._axes[:, 1], -self._axes[:, 0]
+        skew -= np.swapaxes(skew, 1, 2)
+        self._skew, self._skew2 = skew, skew @ skew
+        self._offset_axis = np.stack([self._offsets, self._axes], axis=-1)
         self.root = self.link_index[spec.root.name]
         # ancestors[j] = joint indices that move joint j's child link (itself included).
         parent_joint = {self._child[i]: i for i in range(len(spec.joints))}
@@ -125,12 +131,14 @@ class Tree:
         positions[self.root] = np.zeros(3) if root_position is None else root_position
         axes = np.empty((len(self._child), 3))
         joints = np.empty((len(self._child), 3))
-        local = axis_angles(self._axes, np.where(self._prismatic, 0.0, q))
+        angle = np.where(self._prismatic, 0.0, q)[:, None, None]
+        local = np.eye(3) + np.sin(angle) * self._skew + (1.0 - np.cos(angle)) * self._skew2
         slide = np.where(self._prismatic, q, 0.0)
         for members, parents, children in groups:
             rot, pos = rotations[parents], positions[parents]
-            here = pos + np.einsum("kij,kj->ki", rot, self._offsets[members])
-            axis = np.einsum("kij,kj->ki", rot, self._axes[members])
+            moved = rot @ self._offset_axis[members]  # (k, 3, 2): offset and axis columns
+            here = pos + moved[:, :, 0]
+            axis = moved[:, :, 1]
             axes[members], joints[members] = axis, here
             rotations[children] = rot @ local[members]
             positions[children] = here + axis * slide[members, None]

@@ -1,0 +1,136 @@
+"""How good a retargeted clip is, against its human source.
+
+Directions and key-body offsets are compared in each body's heading frame
+(yaw of the pelvis), so a robot that walks the same way but is smaller or
+turned is judged by its posture, not its position.
+"""
+
+import numpy as np
+
+from hotu_drake import embodiment as embodiments
+from hotu_drake.embodiment.kinematics import batch_link_poses
+from hotu_drake.embodiment.landmarks import landmark_placements
+from hotu_drake.motion.clip import MotionClip
+from hotu_drake.motion.human import FINGERS, landmarks_of
+from hotu_drake.motion.rotations import quat_to_matrix
+from hotu_drake.retarget import frames
+from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
+from hotu_drake.retarget.tree import Tree
+
+# The segment that shows each part's posture.
+PART_SEGMENTS = {
+    "torso": ("chest", "neck"),
+    "neck": ("neck", "head_top"),
+    "shoulder": ("shoulder", "elbow"),
+    "elbow": ("elbow", "wrist"),
+    "wrist": ("wrist", "hand"),
+    "hip": ("hip", "knee"),
+    "knee": ("knee", "ankle"),
+    "ankle": ("ankle", "toe"),
+}
+KEY_BODIES = ("left_wrist", "right_wrist", "left_ankle", "right_ankle")
+
+
+def clip_landmarks(emb: embodiments.Embodiment, clip: MotionClip) -> dict[str, np.ndarray]:
+    """World positions of an embodiment's landmarks over a clip."""
+    poses = batch_link_poses(
+        emb.spec, clip.joint_names, clip.joint_positions, quat_to_matrix(clip.root_quaternion), clip.root_position
+    )
+    out = {}
+    for name, (link, offset) in landmark_placements(emb.spec).items():
+        rot, pos = poses[link]
+        out[name] = pos + rot @ offset
+    return out
+
+
+def _heading(points: dict[str, np.ndarray]) -> np.ndarray:
+    return frames.heading(frames.pelvis_frame(points))
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-9)
+
+
+def _angles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.degrees(np.arccos(np.clip(np.sum(_unit(a) * _unit(b), axis=-1), -1.0, 1.0)))
+
+
+def _height(points: dict[str, np.ndarray]) -> float:
+    feet = np.minimum(points["left_ankle"][:, 2], points["right_ankle"][:, 2])
+    return float(np.median(points["head_top"][:, 2] - feet)) if "head_top" in points else 1.0
+
+
+def report(source: MotionClip, result: MotionClip, emb: embodiments.Embodiment, seconds: float) -> dict:
+    """The per-clip, per-robot figures of `--report`."""
+    src = landmarks_of(source)
+    dst = clip_landmarks(emb, result)
+    frames_count = result.num_frames
+    q = result.joint_positions
+    violations = int(np.sum((q < emb.position_lower - 1e-9) | (q > emb.position_upper + 1e-9)))
+    out = {
+        "frames": frames_count,
+        "frames_per_second": round(frames_count / seconds, 1) if seconds > 0 else None,
+        "joint_limit_violations": violations,
+        "part_direction_error_deg": {},
+    }
+    legged = "left_hip" in dst and "left_hip" in src
+    h_src = _heading(src) if "left_hip" in src else None
+    h_dst = _heading(dst) if legged else h_src
+    if h_dst is None:
+        h_dst = h_src
+    for part, (start, end) in PART_SEGMENTS.items():
+        errors = []
+        for side in ("left_", "right_") if part not in ("torso", "neck") else ("",):
+            a, b = side + start, side + end
+            if {a, b} <= set(src) and {a, b} <= set(dst) and emb.part_dof[part] > 0:
+                d_src = np.einsum("tji,tj->ti", h_src, src[b] - src[a])
+                d_dst = np.einsum("tji,tj->ti", h_dst, dst[b] - dst[a])
+                errors.append(_angles(d_src, d_dst))
+        if errors:
+            e = np.concatenate(errors)
+            out["part_direction_error_deg"][part] = {"mean": round(float(e.mean()), 2), "max": round(float(e.max()), 2)}
+    finger_errors = []
+    for side in ("left", "right"):
+        for finger in FINGERS:
+            a, b = f"{side}_{finger}_1", f"{side}_{finger}_4"
+            if {a, b} <= set(src) and {a, b} <= set(dst):
+                hand_src = frames.hand_frame(src, side)
+                hand_dst = frames.hand_frame(dst, side)
+                d_src = np.einsum("tji,tj->ti", hand_src, src[b] - src[a])
+                d_dst = np.einsum("tji,tj->ti", hand_dst, dst[b] - dst[a])
+                finger_errors.append(_angles(d_src, d_dst))
+    if finger_errors:
+        e = np.concatenate(finger_errors)
+        out["part_direction_error_deg"]["finger"] = {"mean": round(float(e.mean()), 2), "max": round(float(e.max()), 2)}
+
+    keys = [k for k in KEY_BODIES if k in src and k in dst]
+    if keys and "pelvis" in dst:
+        hs, hd = _height(src), _height(dst) if legged else _height(src)
+        errs = []
+        for key in keys:
+            rel_src = np.einsum("tji,tj->ti", h_src, src[key] - src["pelvis"]) / hs
+            rel_dst = np.einsum("tji,tj->ti", h_dst, dst[key] - dst["pelvis"]) / hd
+            errs.append(np.linalg.norm(rel_src - rel_dst, axis=-1))
+        out["key_body_error"] = round(float(np.mean(errs)), 4)
+    if legged:
+        contacts = detect_foot_contacts(src, source.fps)
+        speeds = []
+        for side in ("left", "right"):
+            ankle = dst[f"{side}_ankle"]
+            speed = np.linalg.norm(np.gradient(ankle[:, :2], 1.0 / result.fps, axis=0), axis=1)
+            speeds.append(speed[contacts[side]])
+        planted = np.concatenate(speeds)
+        out["foot_skate_m_per_s"] = round(float(planted.mean()), 4) if planted.size else 0.0
+        tree = Tree(emb.spec)
+        soles = Soles(emb.spec, tree)
+        rotations = quat_to_matrix(result.root_quaternion)
+        lowest = min(
+            soles.lowest(tree.forward(result.joint_positions[t], rotations[t], result.root_position[t]), side)
+            for t in range(frames_count)
+            for side in soles.feet
+        )
+        out["foot_penetration_m"] = round(max(0.0, -lowest), 4)
+    else:
+        out["foot_skate_m_per_s"] = None
+        out["foot_penetration_m"] = None
+    return out

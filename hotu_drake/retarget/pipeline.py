@@ -1,0 +1,50 @@
+"""Human -> UDH -> robots, as the method does it."""
+
+from dataclasses import dataclass
+
+from hotu_drake import embodiment
+from hotu_drake.motion.clip import MotionClip
+from hotu_drake.motion.human import FINGERS
+from hotu_drake.motion.udh_skeleton import udh_landmarks
+from hotu_drake.retarget.retargeter import Retargeter, RetargetOptions
+
+ROBOTS: tuple[str, ...] = ("naviai", "h1", "bruce", "walker", "curi")
+
+
+def has_fingers(clip: MotionClip) -> bool:
+    """Whether a human clip tracks finger landmarks (or a UDH clip has finger joints)."""
+    if clip.embodiment == "human":
+        return any(f"left_{finger}_2" in clip.key_body_names for finger in FINGERS)
+    return any(name.endswith("_index_0") for name in clip.joint_names)
+
+
+@dataclass
+class Stage:
+    """One retargeting result and how long its solve took."""
+
+    clip: MotionClip
+    seconds: float
+
+
+def to_udh(source: MotionClip, hands: str = "full", options: RetargetOptions | None = None) -> Stage:
+    """Retarget a human clip onto the UDH (fingers only if the source has them)."""
+    import time
+
+    if source.embodiment == "udh":
+        return Stage(source, 0.0)
+    udh = embodiment.load("udh", hands if has_fingers(source) else "none")
+    start = time.perf_counter()
+    clip = Retargeter(udh, set(source.key_body_names), options).retarget(source)
+    return Stage(clip, time.perf_counter() - start)
+
+
+def to_robot(udh_clip: MotionClip, robot: str, hands: str = "full", options: RetargetOptions | None = None) -> Stage:
+    """Retarget a UDH clip onto one robot through the UDH's landmarks."""
+    import time
+
+    udh = embodiment.load("udh", "full" if has_fingers(udh_clip) else "none")
+    landmarks = udh_landmarks(udh, udh_clip)
+    target = embodiment.load(robot, hands if has_fingers(udh_clip) else "none")
+    start = time.perf_counter()
+    clip = Retargeter(target, set(landmarks), options).retarget_landmarks(landmarks, udh_clip.fps, udh_clip)
+    return Stage(clip, time.perf_counter() - start)

@@ -1,0 +1,99 @@
+"""Side-by-side Meshcat replays of a source motion and its retargeted clips.
+
+The source's landmarks are drawn as small spheres; each embodiment stands in
+its own lane (along y) and plays its clip. `write_replay` saves the whole
+animation as one self-contained HTML file.
+"""
+
+from pathlib import Path
+
+import numpy as np
+from pydrake.common.eigen_geometry import Quaternion
+from pydrake.geometry import Meshcat, MeshcatVisualizer, Rgba, Sphere, StartMeshcat
+from pydrake.math import RigidTransform
+from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
+from pydrake.systems.framework import DiagramBuilder
+
+from hotu_drake import embodiment
+from hotu_drake.diagrams import actuated_joint_order
+from hotu_drake.io import write_text_atomic
+from hotu_drake.motion.clip import MotionClip
+from hotu_drake.motion.human import landmarks_of
+
+LANE = 1.5  # metres between lanes
+REPLAY_FPS = 30.0
+
+
+def _embodiment_of(clip: MotionClip) -> embodiment.Embodiment:
+    hands = "full" if any(n.endswith("_index_0") or n.endswith("_thumb_0") for n in clip.joint_names) else "none"
+    return embodiment.load(clip.embodiment, hands)
+
+
+def render_replay(clips: list[MotionClip], source: MotionClip | None = None, meshcat: Meshcat | None = None) -> Meshcat:
+    """Record `clips` (and the `source` landmarks) playing side by side."""
+    meshcat = meshcat or StartMeshcat()
+    meshcat.Delete()
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlant(MultibodyPlantConfig(time_step=0.0), builder)
+    loaded = [_embodiment_of(clip) for clip in clips]
+    models = [emb.add_to_plant(plant, f"lane{i}") for i, emb in enumerate(loaded)]
+    plant.Finalize()
+    MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat)
+    diagram = builder.Build()
+    context = diagram.CreateDefaultContext()
+    plant_context = plant.GetMyMutableContextFromRoot(context)
+
+    lanes = len(clips) + (source is not None)
+    offsets = (np.arange(lanes) - (lanes - 1) / 2.0) * LANE
+    source_offset = offsets[0] if source is not None else None
+    clip_offsets = offsets[1:] if source is not None else offsets
+    fps = clips[0].fps if clips else source.fps
+    frames = clips[0].num_frames if clips else source.num_frames
+    stride = max(1, int(round(fps / REPLAY_FPS)))
+    indices = range(0, frames, stride)
+
+    points = landmarks_of(source) if source is not None else {}
+    for name in points:
+        meshcat.SetObject(f"/source/{name}", Sphere(0.025), Rgba(0.1, 0.1, 0.1, 1.0))
+    layout = [(actuated_joint_order(plant, model), model) for model in models]
+    meshcat.StartRecording(frames_per_second=fps / stride, set_visualizations_while_recording=False)
+    recording = meshcat.get_mutable_recording()
+    # Where each clip's joints go in the plant's position vector.
+    slots = []
+    for clip, (order, model) in zip(clips, layout):
+        column = {n: i for i, n in enumerate(clip.joint_names)}
+        starts = [plant.GetJointByName(name, model).position_start() for name in order]
+        lateral = [i for i, name in enumerate(order) if name == "base_y"]
+        slots.append((starts, [column[name] for name in order], lateral))
+    for frame, t in enumerate(indices):
+        context.SetTime(frame * stride / fps)
+        positions = plant.GetPositions(plant_context)
+        for clip, (starts, columns, lateral), y in zip(clips, slots, clip_offsets):
+            values = clip.joint_positions[t, columns]
+            values[lateral] += y
+            positions[starts] = values
+        plant.SetPositions(plant_context, positions)
+        for clip, emb, (_, model), y in zip(clips, loaded, layout, clip_offsets):
+            if emb.floating_base:
+                root = plant.GetBodyByName(emb.spec.root.name, model)
+                pose = RigidTransform(Quaternion(*clip.root_quaternion[t]), clip.root_position[t] + [0.0, y, 0.0])
+                plant.SetFreeBodyPose(plant_context, root, pose)
+        diagram.ForcedPublish(context)
+        for name, trajectory in points.items():
+            recording.SetTransform(frame, f"/source/{name}", RigidTransform(trajectory[t] + [0.0, source_offset, 0.0]))
+    meshcat.StopRecording()
+    meshcat.PublishRecording()
+    meshcat.SetProperty("/Axes", "visible", False)
+    # Look at the middle of the motion from the front, far enough for all lanes.
+    middle = np.mean([clip.root_position.mean(axis=0) for clip in clips], axis=0) if clips else np.zeros(3)
+    width = LANE * lanes
+    meshcat.SetCameraPose(middle + [0.9 * width + 1.5, 0.0, 1.4], np.array([middle[0], 0.0, 0.7]))
+    return meshcat
+
+
+def write_replay(
+    path: str | Path, clips: list[MotionClip], source: MotionClip | None = None, meshcat: Meshcat | None = None
+) -> Path:
+    """Write a self-contained HTML replay."""
+    meshcat = render_replay(clips, source, meshcat)
+    return write_text_atomic(path, meshcat.StaticHtml())
