@@ -267,45 +267,25 @@ class Retargeter:
     def retarget_landmarks(
         self, src: dict[str, np.ndarray], fps: float, source: MotionClip | None = None
     ) -> MotionClip:
+        """Retarget landmark trajectories {name: (T, 3)} sampled at `fps`."""
         frames_count = len(src["pelvis"])
         src_frames = _source_frames(src)
         contacts = detect_foot_contacts(src, fps) if self.legged else {}
-        ratio = _leg_length(self.rest) / _leg_length(src) if self.legged else 1.0
-        root_rest = self.rest_frames.get(self.root_frame)
-        pelvis_offset = self.rest["pelvis"] - self.tree.forward(self.q_rest).positions[self.tree.root]
-
-        per_frame_sweeps = self.options.high_rate_sweeps if fps >= 60 else self.options.sweeps
-        q = self.embodiment.standing_pose.copy()
-        q_previous = q.copy()
-        out_q = np.zeros((frames_count, len(q)))
+        stream = RetargetStream(self, fps, src)
+        out_q = np.zeros((frames_count, len(self.tree.joint_names)))
         out_rotation = np.zeros((frames_count, 3, 3))
         out_position = np.zeros((frames_count, 3))
-        anchors: dict[str, np.ndarray] = {}
-        height_offset = 0.0
         for t in range(frames_count):
-            if self.spec.floating_base:
-                root_rotation = src_frames[self.root_frame][t] @ root_rest.T
-                root_position = src["pelvis"][t] * ratio - root_rotation @ pelvis_offset
-            else:  # a planar base follows the pelvis over the floor
-                heading = frames.heading(src_frames["pelvis"][t])
-                q[self.base] = [src["pelvis"][t][0], src["pelvis"][t][1], np.arctan2(heading[1, 0], heading[0, 0])]
-                root_rotation, root_position = np.eye(3), np.zeros(3)
-            root_position[2] += height_offset
-            sweeps = self.options.first_frame_sweeps if t == 0 else per_frame_sweeps
-            self._solve_parts(q, q_previous, root_rotation, root_position, t, src, src_frames, sweeps)
-            if self.legged:
-                root_position, height_offset = self._feet(
-                    q, root_rotation, root_position, t, contacts, anchors, height_offset
-                )
-            np.clip(q, self.embodiment.position_lower, self.embodiment.position_upper, out=q)
-            out_q[t], out_rotation[t], out_position[t] = q, root_rotation, root_position
-            q_previous = q.copy()
+            frame = {name: value[t : t + 1] for name, value in src.items()}
+            body = {name: value[t : t + 1] for name, value in src_frames.items()}
+            planted = {side: bool(flags[t]) for side, flags in contacts.items()}
+            out_q[t], out_rotation[t], out_position[t] = stream.push(frame, body, planted)
         return self._clip(out_q, out_rotation, out_position, fps, source, contacts)
 
-    def _feet(self, q, root_rotation, root_position, t, contacts, anchors, height_offset):
+    def _feet(self, q, root_rotation, root_position, contacts, anchors, height_offset):
         """Keep planted soles on the floor and where they landed."""
         pose = self.tree.forward(q, root_rotation, root_position)
-        planted = [s for s in SIDES if contacts[s][t]]
+        planted = [s for s in SIDES if contacts.get(s)]
         for side in SIDES:
             if side not in planted:
                 anchors.pop(side, None)
@@ -373,6 +353,53 @@ class Retargeter:
             contact_names=contact_names if contacts else [],
             contacts=contact_values,
         )
+
+
+class RetargetStream:
+    """Retargets one frame at a time, carrying the warm start, the planted
+    feet's anchors and the root height offset from frame to frame."""
+
+    def __init__(self, retargeter: Retargeter, fps: float, sample: dict[str, np.ndarray]):
+        r = self.retargeter = retargeter
+        self.fps = fps
+        self.ratio = _leg_length(r.rest) / _leg_length(sample) if r.legged else 1.0
+        self.root_rest = r.rest_frames.get(r.root_frame)
+        self.pelvis_offset = r.rest["pelvis"] - r.tree.forward(r.q_rest).positions[r.tree.root]
+        self.sweeps = r.options.high_rate_sweeps if fps >= 60 else r.options.sweeps
+        self.q = r.embodiment.standing_pose.copy()
+        self.q_previous = self.q.copy()
+        self.anchors: dict[str, np.ndarray] = {}
+        self.height_offset = 0.0
+        self.count = 0
+
+    def push(
+        self, src: dict[str, np.ndarray], src_frames: dict[str, np.ndarray] | None = None, planted=None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Joint positions, root rotation and root position for one source frame.
+
+        `src` maps landmarks to (1, 3) positions; `planted` maps a side to
+        whether its foot is in contact (none: no foot locking this frame).
+        """
+        r, q = self.retargeter, self.q
+        src_frames = _source_frames(src) if src_frames is None else src_frames
+        if r.spec.floating_base:
+            root_rotation = src_frames[r.root_frame][0] @ self.root_rest.T
+            root_position = src["pelvis"][0] * self.ratio - root_rotation @ self.pelvis_offset
+        else:  # a planar base follows the pelvis over the floor
+            heading = frames.heading(src_frames["pelvis"][0])
+            q[r.base] = [src["pelvis"][0][0], src["pelvis"][0][1], np.arctan2(heading[1, 0], heading[0, 0])]
+            root_rotation, root_position = np.eye(3), np.zeros(3)
+        root_position[2] += self.height_offset
+        sweeps = r.options.first_frame_sweeps if self.count == 0 else self.sweeps
+        r._solve_parts(q, self.q_previous, root_rotation, root_position, 0, src, src_frames, sweeps)
+        if r.legged and planted is not None:
+            root_position, self.height_offset = r._feet(
+                q, root_rotation, root_position, planted, self.anchors, self.height_offset
+            )
+        np.clip(q, r.embodiment.position_lower, r.embodiment.position_upper, out=q)
+        self.q_previous = q.copy()
+        self.count += 1
+        return q.copy(), root_rotation, root_position
 
 
 def _landmarks_of_embodiment_clip(clip: MotionClip) -> dict[str, np.ndarray]:

@@ -1,0 +1,235 @@
+"""The procedural demonstration library: every motion is valid, deterministic
+and looks like what it is named (feet planted, hands on the box, ...)."""
+
+import time
+
+import numpy as np
+import pytest
+
+from hotu_drake import embodiment
+from hotu_drake.embodiment.kinematics import batch_link_poses
+from hotu_drake.motion.clip import MotionClip
+from hotu_drake.motion.library import MOTIONS, generate, generate_library, generate_udh
+from hotu_drake.motion.rotations import angular_velocity, finite_difference, quat_to_matrix
+
+FPS = 30.0
+SIDES = ("left", "right")
+
+
+@pytest.fixture(scope="module")
+def udh():
+    return embodiment.load("udh", hands="full")
+
+
+@pytest.fixture(scope="module")
+def clips(udh):
+    """Every motion on the UDH, generated once (and timed)."""
+    start = time.perf_counter()
+    out = {name: generate_udh(name, udh=udh) for name in MOTIONS}
+    out["_seconds"] = time.perf_counter() - start
+    return out
+
+
+@pytest.fixture(scope="module")
+def human(clips):
+    return {name: generate(name) for name in ("walk", "box_carry", "drill_grasp")}
+
+
+def sole_heights(udh, clip: MotionClip) -> dict[str, np.ndarray]:
+    """Lowest point (T,) of each foot's collision spheres above the floor."""
+    poses = batch_link_poses(
+        udh.spec, clip.joint_names, clip.joint_positions, quat_to_matrix(clip.root_quaternion), clip.root_position
+    )
+    out = {}
+    for side in SIDES:
+        link = udh.spec.link(udh.key_bodies[f"{side}_foot"])
+        rot, pos = poses[link.name]
+        centres = np.array([g.position for g in link.collisions])
+        radii = np.array([g.size[0] for g in link.collisions])
+        z = pos[:, None, 2] + np.einsum("tj,kj->tk", rot[:, 2, :], centres) - radii
+        out[side] = z.min(axis=1)
+    return out
+
+
+def box_distance(point: np.ndarray, pose: np.ndarray, half: float = 0.15) -> np.ndarray:
+    """Signed distance (T,) from points (T, 3) to the surface of a cube at poses (T, 7)."""
+    local = np.einsum("tji,tj->ti", quat_to_matrix(pose[:, 3:]), point - pose[:, :3])
+    q = np.abs(local) - half
+    return np.linalg.norm(np.maximum(q, 0.0), axis=1) + np.minimum(q.max(axis=1), 0.0)
+
+
+def intervals(mask: np.ndarray) -> list[tuple[int, int]]:
+    """[start, stop) frame ranges where `mask` is true."""
+    edges = np.diff(np.concatenate([[0], mask.astype(int), [0]]))
+    return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)))
+
+
+def test_vocabulary():
+    assert MOTIONS == (
+        "walk", "jump", "squat", "leg_stretch", "boxing", "finger_motions", "handshake",
+        "kungfu", "wave", "slap", "thumbs_up", "box_carry", "drill_grasp",
+    )  # fmt: skip
+    with pytest.raises(ValueError, match="unknown motion"):
+        generate_udh("moonwalk")
+
+
+def test_whole_library_is_fast(clips):
+    assert clips["_seconds"] < 10.0
+
+
+@pytest.mark.parametrize("name", MOTIONS)
+def test_clip_is_a_valid_udh_clip(udh, clips, name):
+    clip = clips[name]
+    assert clip.embodiment == "udh" and clip.source == f"hotu_drake/library/{name}"
+    assert clip.joint_names == udh.joint_names and len(clip.joint_names) == 92
+    assert clip.key_body_names == list(udh.key_bodies.values())
+    assert clip.part_index == {part: list(joints) for part, joints in udh.parts.items()}
+    assert clip.fps == FPS and 2.0 <= clip.duration <= 12.0
+    q = clip.joint_positions
+    assert np.all(q >= udh.position_lower - 1e-9) and np.all(q <= udh.position_upper + 1e-9)
+    assert {"left_foot", "right_foot"} <= set(clip.contact_names)
+
+
+@pytest.mark.parametrize("name", MOTIONS)
+def test_velocities_match_positions(clips, name):
+    clip = clips[name]
+    np.testing.assert_allclose(clip.joint_velocities, finite_difference(clip.joint_positions, FPS), atol=1e-9)
+    np.testing.assert_allclose(clip.root_linear_velocity, finite_difference(clip.root_position, FPS), atol=1e-9)
+    np.testing.assert_allclose(clip.root_angular_velocity, angular_velocity(clip.root_quaternion, FPS), atol=1e-9)
+    # Smooth enough to track: no joint faster than 25 rad/s.
+    assert np.abs(clip.joint_velocities).max() < 25.0
+
+
+@pytest.mark.parametrize("name", MOTIONS)
+def test_feet_stay_above_the_floor(udh, clips, name):
+    clip = clips[name]
+    heights = sole_heights(udh, clip)
+    for side in SIDES:
+        assert heights[side].min() >= -0.01
+        # A foot in contact is on the floor and not sliding.
+        contact = clip.contact(f"{side}_foot")
+        assert contact.any() and np.all(heights[side][contact] < 0.01)
+        speed = np.linalg.norm(finite_difference(clip.key_body(f"{side}_foot")[:, :2], FPS), axis=1)
+        assert speed[contact].mean() < 0.05
+
+
+@pytest.mark.parametrize("name", MOTIONS)
+def test_save_load_round_trip(clips, tmp_path, name):
+    clip = clips[name]
+    loaded = MotionClip.load(clip.save(tmp_path / f"{name}.npz"))
+    for key in ("joint_positions", "joint_velocities", "root_position", "root_quaternion", "key_body_positions"):
+        np.testing.assert_array_equal(getattr(loaded, key), getattr(clip, key))
+    assert loaded.contact_names == clip.contact_names and loaded.object_names == clip.object_names
+    np.testing.assert_array_equal(loaded.contacts, clip.contacts)
+    if clip.object_names:
+        np.testing.assert_array_equal(loaded.object_poses, clip.object_poses)
+    assert loaded.part_index == clip.part_index
+
+
+@pytest.mark.parametrize("name", MOTIONS)
+def test_seed_determines_the_motion(udh, clips, name):
+    again = generate_udh(name, seed=0, udh=udh)
+    np.testing.assert_array_equal(again.joint_positions, clips[name].joint_positions)
+    np.testing.assert_array_equal(again.root_position, clips[name].root_position)
+    other = generate_udh(name, seed=1, udh=udh)
+    assert not np.array_equal(other.joint_positions, clips[name].joint_positions)
+
+
+def test_duration_stretches_a_motion(udh):
+    clip = generate_udh("wave", duration=6.0, fps=50.0, udh=udh)
+    assert clip.num_frames == 301 and clip.fps == 50.0
+    with pytest.raises(ValueError, match="duration"):
+        generate_udh("wave", duration=0.5, udh=udh)
+
+
+def test_walk_alternates_planted_feet(udh, clips):
+    clip = clips["walk"]
+    swings = sorted((start, side) for side in SIDES for start, _ in intervals(~clip.contact(f"{side}_foot")))
+    order = [side for _, side in swings]
+    assert len(order) >= 5 and all(a != b for a, b in zip(order, order[1:]))
+    assert min(order.count("left"), order.count("right")) >= 2
+    progress = clip.root_position[-1, 0] - clip.root_position[0, 0]
+    assert progress > 1.0
+    for side in SIDES:
+        contact = clip.contact(f"{side}_foot")
+        speed = np.linalg.norm(finite_difference(clip.key_body(f"{side}_foot")[:, :2], FPS), axis=1)
+        assert speed[contact].max() < 0.05  # planted: no skating at all
+    # The pelvis bobs mildly while walking.
+    walking = clip.root_position[30:-30, 2]
+    assert 0.01 < walking.max() - walking.min() < 0.08
+    # Arms swing opposite to the legs: left arm back (positive) when the left foot leads.
+    lead = clip.key_body("left_foot")[:, 0] - clip.key_body("right_foot")[:, 0]
+    assert np.corrcoef(lead, clip.joint("left_shoulder_y"))[0, 1] > 0.5
+    assert np.corrcoef(lead, clip.joint("right_shoulder_y"))[0, 1] < -0.5
+
+
+def test_jump_leaves_the_ground(udh, clips):
+    clip = clips["jump"]
+    heights = sole_heights(udh, clip)
+    airborne = (heights["left"] > 0.05) & (heights["right"] > 0.05)
+    assert airborne.any()
+    assert not (clip.contact("left_foot") | clip.contact("right_foot"))[airborne].any()
+    assert clip.contact("left_foot")[0] and clip.contact("left_foot")[-1]
+    # It crouches before taking off.
+    take_off = np.flatnonzero(airborne)[0]
+    assert clip.root_position[:take_off, 2].min() < clip.root_position[0, 2] - 0.1
+
+
+def test_box_is_carried_from_start_to_target(clips, human):
+    clip = human["box_carry"]
+    box = clip.object_pose("box")
+    assert clip.object_names == ["box"]
+    assert np.linalg.norm(box[-1, :2] - box[0, :2]) > 1.0
+    yaw = 2 * np.arctan2(box[:, 3 + 3], box[:, 3])
+    assert abs(yaw[-1] - yaw[0]) > 1.0  # turned to the target's heading
+    np.testing.assert_allclose(box[[0, -1], 2], 0.15)  # resting on the floor at both ends
+    held = clip.contact("left_hand_box") & clip.contact("right_hand_box")
+    assert held.sum() > 3 * FPS
+    for side in SIDES:
+        touching = clip.contact(f"{side}_hand_box")
+        gap = box_distance(clip.key_body(f"{side}_hand"), box)
+        assert np.all(np.abs(gap[touching]) < 0.03)
+    # Off the floor only while both hands hold it; still whenever not held.
+    assert np.all(held[box[:, 2] > 0.152])
+    moving = np.linalg.norm(finite_difference(box[:, :3], FPS), axis=1) > 1e-6
+    assert not moving[~held].any()
+    # Fingers closed on it while carrying (UDH clip).
+    udh_clip = clips["box_carry"]
+    fingers = [i for i, n in enumerate(udh_clip.joint_names) if "_index_" in n or "_middle_" in n]
+    carrying = held & (box[:, 2] > 0.5)
+    assert udh_clip.joint_positions[np.ix_(carrying, fingers)].min() > 0.3
+
+
+def test_drill_is_grasped_and_lifted(human):
+    clip = human["drill_grasp"]
+    drill = clip.object_pose("drill")
+    contact = clip.contact("right_hand_drill")
+    assert contact[-1] and not contact[0]
+    assert drill[-1, 2] - drill[0, 2] > 0.15
+    lifted = drill[:, 2] > drill[0, 2] + 0.01
+    assert np.all(contact[lifted])
+    gap = np.linalg.norm(clip.key_body("right_hand")[contact] - drill[contact, :3], axis=1)
+    assert gap.max() < 0.07
+    # The fingers close around the grip (finger tips come near it).
+    tip = clip.key_body("right_middle_4")[contact]
+    assert np.linalg.norm(tip - drill[contact, :3], axis=1).max() < 0.08
+
+
+def test_finger_motions_use_the_fingers(udh, clips):
+    clip = clips["finger_motions"]
+    finger = udh.parts["finger"]
+    for name in finger:
+        i = clip.joint_names.index(name)
+        span = np.ptp(clip.joint_positions[:, i])
+        assert span > 0.5 * (udh.position_upper[i] - udh.position_lower[i]), name
+
+
+def test_human_clips_and_library_files(human, tmp_path):
+    clip = human["walk"]
+    assert clip.embodiment == "human" and clip.source == "hotu_drake/library/walk"
+    assert clip.joint_names == [] and "left_toe" in clip.key_body_names
+    assert human["box_carry"].contact_names == ["left_foot", "right_foot", "left_hand_box", "right_hand_box"]
+    paths = generate_library(tmp_path, names=("wave", "box_carry"), seed=3)
+    assert [p.name for p in paths] == ["wave.npz", "box_carry.npz"]
+    loaded = MotionClip.load(paths[1])
+    np.testing.assert_array_equal(loaded.key_body_positions, generate("box_carry", seed=3).key_body_positions)

@@ -1,0 +1,194 @@
+"""Retargeting human -> UDH -> robots: accuracy, limits, floor contact, CLI."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from hotu_drake import embodiment
+from hotu_drake.motion.bvh import read_bvh, write_udh_bvh
+from hotu_drake.motion.c3d import load_c3d_clip, udh_markers, write_c3d
+from hotu_drake.motion.clip import MotionClip
+from hotu_drake.motion.human import human_clip
+from hotu_drake.motion.udh_skeleton import udh_landmarks
+from hotu_drake.retarget.metrics import report
+from hotu_drake.retarget.pipeline import ROBOTS, to_robot, to_udh
+from tests.clips import udh_test_clip
+from tests.conftest import SHARED
+
+CMU = SHARED / "data" / "cmu" / "01_01.bvh"
+
+
+def _rms_degrees(a: MotionClip, b: MotionClip) -> float:
+    assert a.joint_names == b.joint_names
+    return float(np.degrees(np.sqrt(np.mean((a.joint_positions - b.joint_positions) ** 2))))
+
+
+@pytest.mark.parametrize("hands", ["none", "full"])
+def test_bvh_round_trip_recovers_the_udh_joints(tmp_path, hands):
+    truth = udh_test_clip(hands)
+    udh = embodiment.load("udh", hands)
+    path = write_udh_bvh(truth, udh, tmp_path / "udh.bvh")
+    recovered = to_udh(read_bvh(path), hands).clip
+    error = _rms_degrees(truth, recovered)
+    print(f"BVH round trip ({hands} hands): {error:.2f} deg RMS")
+    assert error < 2.0
+
+
+def test_c3d_round_trip_recovers_the_udh_joints(tmp_path):
+    truth = udh_test_clip("none", frames=120)
+    udh = embodiment.load("udh", "none")
+    path = tmp_path / "udh.c3d"
+    write_c3d(path, udh_markers(udh, truth), truth.fps)
+    recovered = to_udh(load_c3d_clip(path), "none").clip
+    error = _rms_degrees(truth, recovered)
+    print(f"C3D round trip: {error:.2f} deg RMS")
+    assert error < 3.0
+
+
+@pytest.fixture(scope="module")
+def human_walk() -> MotionClip:
+    truth = udh_test_clip("full", frames=240)
+    return human_clip(udh_landmarks(embodiment.load("udh", "full"), truth), truth.fps, "test")
+
+
+@pytest.fixture(scope="module")
+def udh_walk(human_walk) -> MotionClip:
+    return to_udh(human_walk, "full").clip
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
+@pytest.mark.parametrize("hands", ["full", "none"])
+def test_every_robot_stays_within_limits_and_above_the_floor(human_walk, udh_walk, robot, hands):
+    result = to_robot(udh_walk, robot, hands)
+    emb = embodiment.load(robot, hands)
+    assert result.clip.joint_names == emb.joint_names
+    figures = report(human_walk, result.clip, emb, result.seconds)
+    assert figures["joint_limit_violations"] == 0
+    if emb.floating_base:
+        assert figures["foot_penetration_m"] <= 0.01
+    # Joint velocities agree with the positions.
+    assert np.allclose(
+        result.clip.joint_velocities[1:-1], np.gradient(result.clip.joint_positions, 1 / 120, axis=0)[1:-1]
+    )
+
+
+def test_smaller_robots_take_proportionally_shorter_strides(udh_walk):
+    bruce = to_robot(udh_walk, "bruce", "none").clip
+    udh_travel = np.linalg.norm(udh_walk.root_position[-1, :2] - udh_walk.root_position[0, :2])
+    bruce_travel = np.linalg.norm(bruce.root_position[-1, :2] - bruce.root_position[0, :2])
+    ratio = embodiment.load("bruce").standing_pelvis_height / embodiment.load("udh").standing_pelvis_height
+    assert bruce_travel / udh_travel == pytest.approx(ratio, rel=0.3)
+
+
+def test_curi_base_follows_the_pelvis(udh_walk):
+    curi = to_robot(udh_walk, "curi", "none").clip
+    path = np.stack([curi.joint("base_x"), curi.joint("base_y")], axis=1)
+    pelvis = udh_landmarks(embodiment.load("udh", "full"), udh_walk)["pelvis"][:, :2]
+    assert np.max(np.linalg.norm(path - pelvis, axis=1)) < 1e-6
+
+
+@pytest.mark.skipif(not CMU.exists(), reason="the shared CMU clip is not here")
+def test_cmu_clip_on_every_robot(tmp_path):
+    source = read_bvh(CMU)
+    udh = to_udh(source, "full")
+    udh_emb = embodiment.load("udh", "none")
+    assert report(source, udh.clip, udh_emb, udh.seconds)["joint_limit_violations"] == 0
+    for robot in ROBOTS:
+        result = to_robot(udh.clip, robot, "full")
+        emb = embodiment.load(robot, "none")  # the CMU clip has no fingers
+        figures = report(source, result.clip, emb, result.seconds)
+        assert figures["joint_limit_violations"] == 0, robot
+        assert figures["frames"] == source.num_frames
+        if emb.floating_base:
+            assert figures["foot_penetration_m"] <= 0.01, robot
+
+
+def test_retargeting_system_streams_like_the_stream():
+    from pydrake.systems.analysis import Simulator
+
+    from hotu_drake.retarget.retargeter import Retargeter, RetargetStream
+    from hotu_drake.systems import RetargetingSystem
+
+    truth = udh_test_clip("none", frames=10)
+    points = udh_landmarks(embodiment.load("udh", "none"), truth)
+    names = list(points)
+    h1 = embodiment.load("h1", "none")
+    system = RetargetingSystem(h1, names, fps=truth.fps)
+    assert system.get_input_port(0).get_name() == "human_pose"
+    assert system.get_output_port(0).get_name() == "positions"
+    assert system.get_output_port(0).size() == 7 + len(h1.joint_names)
+    simulator = Simulator(system)
+    context = simulator.get_mutable_context()
+    system.get_input_port(0).FixValue(context, np.concatenate([points[n][0] for n in names]))
+    simulator.AdvanceTo(0.5 / truth.fps)
+    stream = RetargetStream(Retargeter(h1, set(names)), truth.fps, {n: points[n][:1] for n in names})
+    q, _, _ = stream.push({n: points[n][:1] for n in names})
+    assert system.get_output_port(0).Eval(context)[7:] == pytest.approx(q)
+
+
+def _cli(*args):
+    return subprocess.run(
+        [sys.executable, "-m", "hotu_drake.retarget", *args], capture_output=True, text=True, timeout=600
+    )
+
+
+def test_cli_writes_clips_report_and_replay(tmp_path):
+    truth = udh_test_clip("none", frames=60)
+    source = tmp_path / "sway.bvh"
+    write_udh_bvh(truth, embodiment.load("udh", "none"), source)
+    out = tmp_path / "out"
+    result = _cli(
+        str(source),
+        "--robot",
+        "all",
+        "--out",
+        str(out),
+        "--report",
+        str(tmp_path / "r.json"),
+        "--html",
+        str(tmp_path / "replay.html"),
+    )
+    assert result.returncode == 0, result.stderr
+    names = sorted(p.name for p in out.iterdir())
+    assert names == sorted(f"sway_{r}.npz" for r in ("udh", *ROBOTS))
+    figures = json.loads((tmp_path / "r.json").read_text())["clips"]["sway"]
+    for values in figures.values():
+        assert values["joint_limit_violations"] == 0
+        assert values["frames"] == 60 and values["frames_per_second"] > 0
+        assert set(values) >= {"part_direction_error_deg", "key_body_error", "foot_skate_m_per_s", "foot_penetration_m"}
+    loaded = MotionClip.load(out / "sway_h1.npz")
+    assert loaded.embodiment == "h1" and loaded.num_frames == 60
+    assert (tmp_path / "replay.html").stat().st_size > 100_000
+
+
+BAD_INPUTS = {
+    "truncated.bvh": lambda text: text[: len(text) // 3],
+    "malformed.bvh": lambda text: text.replace("Frame Time:", "Frame Time: x", 1),
+    "nan.bvh": lambda text: (
+        text.rsplit("\n", 2)[0] + "\n" + " ".join(["nan"] * len(text.rsplit("\n", 2)[1].split())) + "\n"
+    ),
+    "zeroframes.bvh": lambda text: text.split("MOTION")[0] + "MOTION\nFrames: 0\nFrame Time: 0.0083333\n",
+    "unknown.bvh": lambda text: (
+        text.replace("left_", "gauche_").replace("right_", "droite_").replace("pelvis", "bassin")
+    ),
+}
+
+
+@pytest.mark.parametrize("name", sorted(BAD_INPUTS))
+def test_cli_bad_input_is_one_line_and_others_still_run(tmp_path, name):
+    truth = udh_test_clip("none", frames=30)
+    good = write_udh_bvh(truth, embodiment.load("udh", "none"), tmp_path / "good.bvh")
+    bad = tmp_path / name
+    bad.write_text(BAD_INPUTS[name](good.read_text()))
+    out = tmp_path / "out"
+    result = _cli(str(bad), str(good), "--robot", "h1", "--out", str(out), "--report", str(tmp_path / "r.json"))
+    assert result.returncode == 2
+    errors = [line for line in result.stderr.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and str(bad) in errors[0], result.stderr
+    assert "Traceback" not in result.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["good_h1.npz"]
+    report_json = json.loads((tmp_path / "r.json").read_text())
+    assert list(report_json["clips"]) == ["good"] and len(report_json["errors"]) == 1
