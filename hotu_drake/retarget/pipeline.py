@@ -27,12 +27,13 @@ class Stage:
 
 
 def to_udh(source: MotionClip, hands: str = "full", options: RetargetOptions | None = None) -> Stage:
-    """Retarget a human clip onto the UDH (fingers only if the source has them)."""
+    """Retarget a human clip onto the UDH. Without finger landmarks in the
+    source, a full-hand UDH keeps its fingers at their standing pose."""
     import time
 
     if source.embodiment == "udh":
         return Stage(source, 0.0)
-    udh = embodiment.load("udh", hands if has_fingers(source) else "none")
+    udh = embodiment.load("udh", hands)
     start = time.perf_counter()
     clip = Retargeter(udh, set(source.key_body_names), options).retarget(source)
     return Stage(clip, time.perf_counter() - start)
@@ -44,7 +45,7 @@ def to_robot(udh_clip: MotionClip, robot: str, hands: str = "full", options: Ret
 
     udh = embodiment.load("udh", "full" if has_fingers(udh_clip) else "none")
     landmarks = udh_landmarks(udh, udh_clip)
-    target = embodiment.load(robot, hands if has_fingers(udh_clip) else "none")
+    target = embodiment.load(robot, hands)
     start = time.perf_counter()
     clip = Retargeter(target, set(landmarks), options).retarget_landmarks(landmarks, udh_clip.fps, udh_clip)
     return Stage(clip, time.perf_counter() - start)

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 from pydrake.common.eigen_geometry import Quaternion
-from pydrake.geometry import Meshcat, MeshcatVisualizer, Rgba, Sphere, StartMeshcat
+from pydrake.geometry import Box, Cylinder, Meshcat, MeshcatVisualizer, Rgba, Sphere, StartMeshcat
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.framework import DiagramBuilder
@@ -20,8 +20,26 @@ from hotu_drake.io import write_text_atomic
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import landmarks_of
 
-LANE = 1.5  # metres between lanes
+LANE = 1.2  # metres between lanes
 REPLAY_FPS = 30.0
+OBJECT_COLOR = Rgba(0.72, 0.52, 0.30, 1.0)
+
+
+def _add_object(meshcat: Meshcat, path: str, name: str, pose: np.ndarray) -> None:
+    """Shapes of the library's objects, in their own frames (see motion.library)."""
+    if name == "box":
+        meshcat.SetObject(f"{path}/body", Box(0.3, 0.3, 0.3), OBJECT_COLOR)
+    elif name == "drill":
+        meshcat.SetObject(f"{path}/grip", Cylinder(0.02, 0.12), Rgba(0.15, 0.15, 0.15, 1.0))
+        meshcat.SetObject(f"{path}/barrel", Box(0.2, 0.05, 0.06), Rgba(0.9, 0.6, 0.1, 1.0))
+        meshcat.SetTransform(f"{path}/barrel", RigidTransform([0.05, 0.0, 0.08]))
+    elif name == "table":
+        height = float(pose[2])
+        meshcat.SetObject(f"{path}/top", Box(0.6, 0.8, 0.04), OBJECT_COLOR)
+        meshcat.SetObject(f"{path}/leg", Box(0.08, 0.08, height), OBJECT_COLOR)
+        meshcat.SetTransform(f"{path}/leg", RigidTransform([0.0, 0.0, -height / 2]))
+    else:
+        meshcat.SetObject(f"{path}/body", Sphere(0.05), OBJECT_COLOR)
 
 
 def _embodiment_of(clip: MotionClip) -> embodiment.Embodiment:
@@ -55,6 +73,18 @@ def render_replay(clips: list[MotionClip], source: MotionClip | None = None, mes
     points = landmarks_of(source) if source is not None else {}
     for name in points:
         meshcat.SetObject(f"/source/{name}", Sphere(0.025), Rgba(0.1, 0.1, 0.1, 1.0))
+    # Objects keep the human's scale: draw them in the source's and the UDH's lanes.
+    carrier = source if source is not None else clips[0]
+    object_lanes = ([source_offset] if source is not None else []) + [
+        y for clip, y in zip(clips, clip_offsets) if clip.embodiment == "udh"
+    ]
+    objects = []
+    if carrier.object_poses is not None:
+        for i, name in enumerate(carrier.object_names):
+            for lane, y in enumerate(object_lanes):
+                path = f"/objects/{name}_{lane}"
+                _add_object(meshcat, path, name, carrier.object_poses[0, i])
+                objects.append((path, carrier.object_poses[:, i], y))
     layout = [(actuated_joint_order(plant, model), model) for model in models]
     meshcat.StartRecording(frames_per_second=fps / stride, set_visualizations_while_recording=False)
     recording = meshcat.get_mutable_recording()
@@ -81,13 +111,18 @@ def render_replay(clips: list[MotionClip], source: MotionClip | None = None, mes
         diagram.ForcedPublish(context)
         for name, trajectory in points.items():
             recording.SetTransform(frame, f"/source/{name}", RigidTransform(trajectory[t] + [0.0, source_offset, 0.0]))
+        for path, poses, y in objects:
+            pose = RigidTransform(
+                Quaternion(*(poses[t, 3:] / np.linalg.norm(poses[t, 3:]))), poses[t, :3] + [0.0, y, 0.0]
+            )
+            recording.SetTransform(frame, path, pose)
     meshcat.StopRecording()
     meshcat.PublishRecording()
     meshcat.SetProperty("/Axes", "visible", False)
     # Look at the middle of the motion from the front, far enough for all lanes.
     middle = np.mean([clip.root_position.mean(axis=0) for clip in clips], axis=0) if clips else np.zeros(3)
     width = LANE * lanes
-    meshcat.SetCameraPose(middle + [0.9 * width + 1.5, 0.0, 1.4], np.array([middle[0], 0.0, 0.7]))
+    meshcat.SetCameraPose(middle + [0.6 * width + 1.5, 0.0, 1.6], np.array([middle[0], 0.0, 0.8]))
     return meshcat
 
 

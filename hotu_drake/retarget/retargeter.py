@@ -46,6 +46,11 @@ class _Part:
     level: int  # 0 = proximal (torso, shoulder, hip) ... 3 = fingers
     problem: PartProblem
     targets: list  # (target, source key)
+    # Fingers: the source's finger directions in its hand frame when last
+    # solved, and whether that solve had settled (then an unchanged hand
+    # shape needs no new solve).
+    signature: np.ndarray | None = None
+    settled: bool = False
 
 
 def _source_frames(src: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -174,13 +179,18 @@ class Retargeter:
             else:
                 wrist_targets = [self._direction(both, f"{s}wrist", hand)]
             add(f"{s}wrist", 2, self._joints(f"{s}wrist_"), wrist_targets)
+            # The finger part: all fingers of one hand in one program.
             model = self.spec.hand_mounts.get(side, ("none",))[0]
+            finger_joints, finger_targets = [], []
             for finger in FINGERS:
-                targets = [self._finger(both, side, finger, i) for i in (1, 2, 3)]
-                if any(targets):
+                joints = self._joints(f"{s}{finger}_")
+                targets = [t for t in (self._finger(both, side, finger, i) for i in (1, 2, 3)) if t is not None]
+                if joints and targets:
+                    start = len(finger_joints)
                     pairs = COUPLED_JOINTS.get(model, {}).get(finger, ())
-                    targets += [(Coupling(a, b), "q") for a, b in pairs]
-                add(f"{s}{finger}", 3, self._joints(f"{s}{finger}_"), targets)
+                    finger_targets += targets + [(Coupling(start + a, start + b), "q") for a, b in pairs]
+                    finger_joints += joints
+            add(f"{s}finger", 3, finger_joints, finger_targets)
             knee = self._joints(f"{s}knee_")
             bend = None
             if knee and {f"{s}hip", f"{s}knee", f"{s}ankle"} <= both:
@@ -240,6 +250,8 @@ class Retargeter:
             pose = None
             largest = 0.0
             for part in self.parts:
+                if part.level == 3 and self._finger_unchanged(part, t, src, src_frames):
+                    continue
                 if part.level != level:  # proximal parts first; fingers need the full tree
                     groups = None if part.level >= 3 else self._body_groups
                     pose = self.tree.forward(q, root_rotation, root_position, groups)
@@ -256,8 +268,22 @@ class Retargeter:
                 step = part.problem.step(rows, q[part.problem.joints], q_previous[part.problem.joints])
                 q[part.problem.joints] += step
                 largest = max(largest, float(np.max(np.abs(step))))
+                part.settled = float(np.max(np.abs(step))) < self.options.tolerance
             if largest < self.options.tolerance:
                 break
+
+    def _finger_unchanged(self, part: _Part, t: int, src: dict, src_frames: dict) -> bool:
+        """True if the source hand's shape is as when this settled part was solved."""
+        shape = []
+        for _, key in part.targets:
+            if key != "q":
+                v = src[key[2]][t] - src[key[1]][t]
+                shape.append(src_frames[key[3]][t].T @ (v / max(np.linalg.norm(v), 1e-9)))
+        shape = np.concatenate(shape)
+        unchanged = part.signature is not None and part.settled and np.max(np.abs(shape - part.signature)) < 1e-4
+        if not unchanged:
+            part.signature = shape
+        return unchanged
 
     def retarget(self, source: MotionClip) -> MotionClip:
         """The source (a human or UDH clip, through its landmarks) on this embodiment."""
@@ -282,9 +308,13 @@ class Retargeter:
             out_q[t], out_rotation[t], out_position[t] = stream.push(frame, body, planted)
         return self._clip(out_q, out_rotation, out_position, fps, source, contacts)
 
+    def _body_pose(self, q, root_rotation, root_position):
+        """Poses of every link but the fingers."""
+        return self.tree.forward(q, root_rotation, root_position, self._body_groups)
+
     def _feet(self, q, root_rotation, root_position, contacts, anchors, height_offset):
         """Keep planted soles on the floor and where they landed."""
-        pose = self.tree.forward(q, root_rotation, root_position)
+        pose = self._body_pose(q, root_rotation, root_position)
         planted = [s for s in SIDES if contacts.get(s)]
         for side in SIDES:
             if side not in planted:
@@ -293,7 +323,7 @@ class Retargeter:
             lift = -min(self.soles.lowest(pose, s) for s in planted)
             root_position = root_position + [0.0, 0.0, lift]
             height_offset += lift
-            pose = self.tree.forward(q, root_rotation, root_position)
+            pose = pose.translated([0.0, 0.0, lift])
             if self.options.lock_feet:
                 for side in planted:
                     anchors.setdefault(side, self.marks.position(pose, f"{side}_ankle").copy())
@@ -301,27 +331,27 @@ class Retargeter:
                 first = planted[0]
                 drift = anchors[first] - self.marks.position(pose, f"{first}_ankle")
                 root_position = root_position + [drift[0], drift[1], 0.0]
+                pose = pose.translated([drift[0], drift[1], 0.0])
                 for side in planted:
                     foot = pose.rotations[self._link_of(f"{side}_toe")] @ self.rest_frames[f"{side}_foot"]
-                    self._lock_leg(side, q, root_rotation, root_position, anchors[side], foot)
-                pose = self.tree.forward(q, root_rotation, root_position)
+                    self._lock_leg(side, q, pose, anchors[side], foot)
+                    pose = self._body_pose(q, root_rotation, root_position)
         feet = [self.soles.lowest(pose, s) for s in SIDES if s in self.soles.feet]
         if feet and min(feet) < 0.0:  # never below the floor
             root_position = root_position + [0.0, 0.0, -min(feet)]
             height_offset -= min(feet)
         return root_position, height_offset
 
-    def _lock_leg(self, side, q, root_rotation, root_position, anchor, foot_frame) -> None:
-        """Move the leg so the ankle returns to its anchor, keeping the foot's orientation."""
+    def _lock_leg(self, side, q, pose, anchor, foot_frame) -> None:
+        """One IK step of the whole leg that brings the ankle back to its anchor,
+        keeping the foot's orientation (`pose` is the current configuration)."""
         if side not in self._lock:
             return
         problem, position, orientation = self._lock[side]
-        for _ in range(1):
-            pose = self.tree.forward(q, root_rotation, root_position)
-            joints = problem.joints
-            rows = [position.rows(self.marks, pose, joints, anchor)]
-            rows.append(orientation.rows(self.marks, pose, joints, foot_frame))
-            q[joints] += problem.step(rows, q[joints], q[joints])
+        joints = problem.joints
+        rows = [position.rows(self.marks, pose, joints, anchor)]
+        rows.append(orientation.rows(self.marks, pose, joints, foot_frame))
+        q[joints] += problem.step(rows, q[joints], q[joints])
 
     def _clip(self, q, rotations, positions, fps, source, contacts) -> MotionClip:
         quaternions = make_continuous(matrix_to_quat(rotations))
@@ -330,7 +360,7 @@ class Retargeter:
         key_index = [self.tree.link_index[n] for n in key_names]
         key_positions = np.zeros((len(q), len(key_names), 3))
         for t in range(len(q)):
-            pose = self.tree.forward(q[t], rotations[t], positions[t])
+            pose = self._body_pose(q[t], rotations[t], positions[t])
             key_positions[t] = pose.positions[key_index]
         contact_names = [f"{s}_foot" for s in SIDES if s in contacts]
         contact_values = np.stack([contacts[s] for s in SIDES if s in contacts], axis=1) if contacts else None

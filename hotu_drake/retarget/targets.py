@@ -22,6 +22,7 @@ class Landmarks:
 
     def __init__(self, tree: Tree, placements: dict[str, tuple[str, np.ndarray]]):
         self.tree = tree
+        self._mask_cache: dict = {}
         self.items = {
             name: (tree.link_index[link], np.asarray(offset, float)) for name, (link, offset) in placements.items()
         }
@@ -42,25 +43,33 @@ class Landmarks:
         point = pose.point(link, offset)
         return point, self.tree_point_jacobian(pose, link, point, joints)
 
+    def _masks(self, link: int, joints: list[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Which of `joints` move `link` (revolute, prismatic), cached."""
+        key = (link, tuple(joints))
+        if key not in self._mask_cache:
+            ancestors = set(self.tree.link_ancestors[link])
+            moves = np.array([j in ancestors for j in joints], dtype=bool)
+            revolute = np.array([self.tree._revolute[j] for j in joints], dtype=bool)
+            rows = (moves & revolute).astype(float)[:, None], (moves & ~revolute).astype(float)[:, None]
+            self._mask_cache[key] = (np.asarray(joints, dtype=int), *rows)
+        return self._mask_cache[key]
+
     def tree_point_jacobian(self, pose: Pose, link: int, point: np.ndarray, joints: list[int]) -> np.ndarray:
-        ancestors = self.tree.link_ancestors[link]
-        jacobian = np.zeros((3, len(joints)))
-        for col, j in enumerate(joints):
-            if j in ancestors:
-                axis = pose.joint_axes[j]
-                if self.tree._revolute[j]:
-                    jacobian[:, col] = cross(axis, point - pose.joint_positions[j])
-                else:
-                    jacobian[:, col] = axis
-        return jacobian
+        index, revolute, prismatic = self._masks(link, joints)
+        a = pose.joint_axes[index]
+        b = point - pose.joint_positions[index]
+        turned = np.column_stack(
+            (
+                a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
+                a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0],
+            )
+        )
+        return (turned * revolute + a * prismatic).T
 
     def rotation_jacobian(self, link: int, pose: Pose, joints: list[int]) -> np.ndarray:
-        ancestors = self.tree.link_ancestors[link]
-        jacobian = np.zeros((3, len(joints)))
-        for col, j in enumerate(joints):
-            if j in ancestors and self.tree._revolute[j]:
-                jacobian[:, col] = pose.joint_axes[j]
-        return jacobian
+        index, revolute, _ = self._masks(link, joints)
+        return (pose.joint_axes[index] * revolute).T
 
 
 @dataclass

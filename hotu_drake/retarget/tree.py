@@ -61,6 +61,10 @@ class Pose:
     def point(self, link: int, offset: np.ndarray) -> np.ndarray:
         return self.positions[link] + self.rotations[link] @ offset
 
+    def translated(self, delta) -> "Pose":
+        """The same configuration moved rigidly by `delta` (a root shift)."""
+        return Pose(self.rotations, self.positions + delta, self.joint_axes, self.joint_positions + delta)
+
 
 class Tree:
     """Index tables of an embodiment's links and joints."""
