@@ -94,11 +94,11 @@ def test_curi_base_follows_the_pelvis(udh_walk):
 def test_cmu_clip_on_every_robot(tmp_path):
     source = read_bvh(CMU)
     udh = to_udh(source, "full")
-    udh_emb = embodiment.load("udh", "none")
+    udh_emb = embodiment.load("udh", "full")  # no finger landmarks: the fingers stay open
     assert report(source, udh.clip, udh_emb, udh.seconds)["joint_limit_violations"] == 0
     for robot in ROBOTS:
         result = to_robot(udh.clip, robot, "full")
-        emb = embodiment.load(robot, "none")  # the CMU clip has no fingers
+        emb = embodiment.load(robot, "full")
         figures = report(source, result.clip, emb, result.seconds)
         assert figures["joint_limit_violations"] == 0, robot
         assert figures["frames"] == source.num_frames
