@@ -2,7 +2,11 @@
 
 Builds the six embodiments, prints their per-part DoF table and writes
 `DIR/gallery.html`, a self-contained Meshcat page of the six standing side
-by side, coloured by functional part.
+by side, coloured by functional part. Then retargets two generated
+demonstrations, a walk and a box carry, onto all six (human -> UDH ->
+robots) and writes their side-by-side replays `DIR/walk.html` and
+`DIR/box_carry.html` (the UDH with its fingers, the robots without, to keep
+the pages light) and the clips under `DIR/clips/`.
 """
 
 import sys
@@ -12,6 +16,11 @@ from hotu_drake import embodiment
 from hotu_drake.cli import ArgumentParser, UserError, run_cli
 from hotu_drake.gallery import write_gallery
 from hotu_drake.models import dof_table, format_table
+from hotu_drake.motion.library import generate
+from hotu_drake.retarget.pipeline import ROBOTS, to_robot, to_udh
+from hotu_drake.retarget.replay import write_replay
+
+DEMO_MOTIONS = ("walk", "box_carry")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -34,6 +43,14 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  {name:7s} no-hands DoF {emb.part_dof['total']:3d}, {stance}")
     gallery = write_gallery(out / "gallery.html")
     print(f"wrote {gallery} (open it in a browser)")
+    for motion in DEMO_MOTIONS:
+        source = generate(motion)
+        udh = to_udh(source, "full")
+        clips = [udh.clip] + [to_robot(udh.clip, robot, "none").clip for robot in ROBOTS]
+        for clip in clips:
+            clip.save(out / "clips" / f"{motion}_{clip.embodiment}.npz")
+        replay = write_replay(out / f"{motion}.html", clips, source)
+        print(f"wrote {replay}: {motion} retargeted onto {', '.join(c.embodiment for c in clips)}")
     return 0
 
 

@@ -2,6 +2,7 @@
 
 python -m hotu_drake.bench standing [--robot NAME|all] [--hands full|none|both]
                                     [--seconds S] [--time-step DT] [--no-self-collision]
+python -m hotu_drake.bench retarget [--input FILE] [--hands full|none|both] [--seconds S]
 """
 
 import json
@@ -20,6 +21,30 @@ def pin_to_one_core() -> None:
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
 
 
+def _retarget(args) -> int:
+    from hotu_drake.bench.retarget import retarget_throughput, source_clip
+    from hotu_drake.motion.clip import ClipFormatError
+
+    try:
+        source = source_clip(args.input, args.seconds)
+    except ClipFormatError as error:
+        raise UserError(str(error)) from None
+    pin_to_one_core()
+    results = []
+    for hands in ("full", "none") if args.hands == "both" else (args.hands,):
+        for row in retarget_throughput(source, hands):
+            print(json.dumps(row), file=sys.stderr, flush=True)
+            results.append(row)
+    report = {
+        "benchmark": "retarget",
+        "machine": machine(),
+        "source": {"clip": source.source, "frames": source.num_frames, "fps": source.fps},
+        "results": results,
+    }
+    print(json.dumps(report, indent=2))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = ArgumentParser(prog="python -m hotu_drake.bench", description="Benchmarks that print JSON.")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -30,7 +55,14 @@ def main(argv: list[str] | None = None) -> int:
     standing.add_argument("--time-step", type=positive_float, default=0.005, help="plant step (s), at most 0.05")
     standing.add_argument("--no-self-collision", action="store_true")
     standing.add_argument("--json", action="store_true", help="accepted for symmetry; output is always JSON")
+    retarget = sub.add_parser("retarget", help="retargeting frames per second per robot (human -> UDH -> robot)")
+    retarget.add_argument("--input", help="a BVH, C3D or .npz demonstration (default: the generated walk at 120 fps)")
+    retarget.add_argument("--hands", choices=["full", "none", "both"], default="both")
+    retarget.add_argument("--seconds", type=positive_float, help="use only the first S seconds")
+    retarget.add_argument("--json", action="store_true", help="accepted for symmetry; output is always JSON")
     args = parser.parse_args(argv)
+    if args.command == "retarget":
+        return _retarget(args)
 
     names = embodiment.EMBODIMENT_NAMES if args.robot == "all" else (args.robot,)
     if any(n not in embodiment.EMBODIMENT_NAMES for n in names):

@@ -28,7 +28,9 @@ PART_SEGMENTS = {
     "knee": ("knee", "ankle"),
     "ankle": ("ankle", "toe"),
 }
-KEY_BODIES = ("left_wrist", "right_wrist", "left_ankle", "right_ankle")
+# Key bodies and the landmark they are measured from (hands from the chest,
+# feet from the pelvis), so a wheeled base or a short torso is not penalised twice.
+KEY_BODIES = {"left_wrist": "chest", "right_wrist": "chest", "left_ankle": "pelvis", "right_ankle": "pelvis"}
 
 
 def clip_landmarks(emb: embodiments.Embodiment, clip: MotionClip) -> dict[str, np.ndarray]:
@@ -108,8 +110,9 @@ def report(source: MotionClip, result: MotionClip, emb: embodiments.Embodiment, 
         hs, hd = _height(src), _height(dst) if legged else _height(src)
         errs = []
         for key in keys:
-            rel_src = np.einsum("tji,tj->ti", h_src, src[key] - src["pelvis"]) / hs
-            rel_dst = np.einsum("tji,tj->ti", h_dst, dst[key] - dst["pelvis"]) / hd
+            base = KEY_BODIES[key]
+            rel_src = np.einsum("tji,tj->ti", h_src, src[key] - src[base]) / hs
+            rel_dst = np.einsum("tji,tj->ti", h_dst, dst[key] - dst[base]) / hd
             errs.append(np.linalg.norm(rel_src - rel_dst, axis=-1))
         out["key_body_error"] = round(float(np.mean(errs)), 4)
     if legged:

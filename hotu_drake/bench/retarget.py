@@ -1,0 +1,48 @@
+"""Retargeting throughput per robot on one core, with the report's quality figures."""
+
+from pathlib import Path
+
+from hotu_drake import embodiment
+from hotu_drake.motion.clip import MotionClip
+from hotu_drake.retarget.metrics import report
+from hotu_drake.retarget.pipeline import ROBOTS, to_robot, to_udh
+
+
+def source_clip(path: str | None, seconds: float | None) -> MotionClip:
+    """The given demonstration, or the generated walk at 120 fps."""
+    if path:
+        from hotu_drake.motion.load import load_motion
+
+        clip = load_motion(Path(path))
+    else:
+        from hotu_drake.motion.library import generate
+
+        clip = generate("walk", fps=120.0)
+    if seconds is not None:
+        clip = clip.slice(0, min(clip.num_frames, int(round(seconds * clip.fps)) + 1))
+    return clip
+
+
+def retarget_throughput(source: MotionClip, hands: str, robots: tuple[str, ...] = ("udh", *ROBOTS)) -> list[dict]:
+    """Frames per second of each stage (human -> UDH, then UDH -> each robot)."""
+    udh = to_udh(source, hands)
+    stages = {"udh": udh}
+    for robot in robots:
+        if robot != "udh":
+            stages[robot] = to_robot(udh.clip, robot, hands)
+    rows = []
+    for robot, stage in stages.items():
+        figures = report(source, stage.clip, embodiment.load(robot, hands), stage.seconds)
+        rows.append(
+            {
+                "robot": robot,
+                "hands": hands,
+                "frames": figures["frames"],
+                "frames_per_second": figures["frames_per_second"],
+                "joint_limit_violations": figures["joint_limit_violations"],
+                "foot_skate_m_per_s": figures["foot_skate_m_per_s"],
+                "foot_penetration_m": figures["foot_penetration_m"],
+                "key_body_error": figures.get("key_body_error"),
+            }
+        )
+    return rows
