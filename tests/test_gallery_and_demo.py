@@ -27,7 +27,11 @@ def test_demo_prints_the_table_and_writes_the_gallery(tmp_path):
     assert "udh" in result.stdout and "92" in result.stdout and "curi" in result.stdout
     page = tmp_path / "gallery.html"
     assert page.stat().st_size > 100_000
-    assert list(tmp_path.iterdir()) == [page]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["box_carry.html", "clips", "gallery.html", "walk.html"]
+    clips = sorted(p.name for p in (tmp_path / "clips").iterdir())
+    robots = ("bruce", "curi", "h1", "naviai", "udh", "walker")
+    assert clips == sorted(f"{motion}_{robot}.npz" for motion in ("box_carry", "walk") for robot in robots)
+    assert "box_carry retargeted onto udh, naviai, h1, bruce, walker, curi" in result.stdout
 
 
 def _chromium() -> str | None:

@@ -57,10 +57,11 @@ def _head(spec: EmbodimentSpec, out: dict) -> None:
     neck = _first_joint(spec, "neck_")
     if neck is not None:
         out["neck"] = _joint_point(spec, neck)
-    else:  # no neck joint: the base of the head on the torso
+    else:  # no neck joint: above the chest at the base of the head
         shoulders = 0.5 * (_world(spec, out["left_shoulder"]) + _world(spec, out["right_shoulder"]))
         base = _world(spec, out["head"]) - [0.0, 0.0, 1.5 * radius]
-        out["neck"] = _attach(spec, spec.key_bodies["torso"], [base[0], 0.0, max(base[2], shoulders[2])])
+        chest = _world(spec, out["chest"])
+        out["neck"] = _attach(spec, spec.key_bodies["torso"], [chest[0], 0.0, max(base[2], shoulders[2])])
 
 
 def _hand(spec: EmbodimentSpec, side: str, out: dict) -> None:
@@ -127,8 +128,13 @@ def landmark_placements(spec: EmbodimentSpec) -> dict[str, tuple[str, np.ndarray
         out["pelvis"] = _attach(spec, pelvis, hips)
     shoulders = 0.5 * (_world(spec, out["left_shoulder"]) + _world(spec, out["right_shoulder"]))
     upper_arm = np.linalg.norm(_world(spec, out["left_elbow"]) - _world(spec, out["left_shoulder"]))
-    out["chest"] = _attach(spec, spec.key_bodies["torso"], shoulders - [0.0, 0.0, 0.5 * upper_arm])
+    # The chest sits straight below the neck (so an upright torso has an
+    # upright chest frame on every embodiment), half an upper arm below the
+    # shoulders.
+    neck = _first_joint(spec, "neck_")
+    x = _world(spec, _joint_point(spec, neck))[0] if neck is not None else shoulders[0]
+    out["chest"] = _attach(spec, spec.key_bodies["torso"], [x, 0.0, shoulders[2] - 0.5 * upper_arm])
     base = _world(spec, out["pelvis"])
     out["spine"] = _attach(spec, pelvis, base + 0.35 * (_world(spec, out["chest"]) - base))
-    _head(spec, out)
+    _head(spec, out)  # after the chest: a robot without a neck joint puts its neck above it
     return out

@@ -6,7 +6,7 @@ from hotu_drake.embodiment.spec import EmbodimentSpec
 from hotu_drake.retarget.tree import Pose, Tree
 
 CONTACT_HEIGHT = 0.04  # m above the clip's floor
-CONTACT_SPEED = 0.25  # m/s horizontal
+CONTACT_SPEED = 0.12  # m/s horizontal, of the middle of the foot
 MIN_PHASE_FRAMES = 3
 
 

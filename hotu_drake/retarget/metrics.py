@@ -12,15 +12,14 @@ from hotu_drake.embodiment.kinematics import batch_link_poses
 from hotu_drake.embodiment.landmarks import landmark_placements
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import FINGERS, landmarks_of
-from hotu_drake.motion.rotations import quat_to_matrix
+from hotu_drake.motion.rotations import quat_to_matrix, rotation_log
 from hotu_drake.retarget import frames
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
 from hotu_drake.retarget.tree import Tree
 
-# The segment that shows each part's posture.
+# The segment that shows each part's posture (torso and neck: a body frame).
+PART_FRAMES = {"torso": frames.chest_frame, "neck": frames.head_frame}
 PART_SEGMENTS = {
-    "torso": ("chest", "neck"),
-    "neck": ("neck", "head_top"),
     "shoulder": ("shoulder", "elbow"),
     "elbow": ("elbow", "wrist"),
     "wrist": ("wrist", "hand"),
@@ -80,9 +79,16 @@ def report(source: MotionClip, result: MotionClip, emb: embodiments.Embodiment, 
     h_dst = _heading(dst) if legged else h_src
     if h_dst is None:
         h_dst = h_src
+    for part, frame_of in PART_FRAMES.items():
+        needed = {"neck", "head_top", "left_shoulder", "right_shoulder", "chest"}
+        if emb.part_dof[part] > 0 and needed <= set(src) and needed <= set(dst):
+            f_src = np.swapaxes(h_src, -1, -2) @ frame_of(src)
+            f_dst = np.swapaxes(h_dst, -1, -2) @ frame_of(dst)
+            e = np.degrees(np.linalg.norm(rotation_log(np.swapaxes(f_src, -1, -2) @ f_dst), axis=-1))
+            out["part_direction_error_deg"][part] = {"mean": round(float(e.mean()), 2), "max": round(float(e.max()), 2)}
     for part, (start, end) in PART_SEGMENTS.items():
         errors = []
-        for side in ("left_", "right_") if part not in ("torso", "neck") else ("",):
+        for side in ("left_", "right_"):
             a, b = side + start, side + end
             if {a, b} <= set(src) and {a, b} <= set(dst) and emb.part_dof[part] > 0:
                 d_src = np.einsum("tji,tj->ti", h_src, src[b] - src[a])
