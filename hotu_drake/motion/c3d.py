@@ -57,10 +57,8 @@ from pathlib import Path
 import numpy as np
 
 from hotu_drake.embodiment import Embodiment
-from hotu_drake.embodiment.kinematics import batch_link_poses
 from hotu_drake.motion.clip import ClipFormatError, MotionClip
 from hotu_drake.motion.human import FINGERS, LANDMARKS, human_clip
-from hotu_drake.motion.rotations import quat_to_matrix
 
 MarkerSetLike = str | Path | Mapping | None
 
@@ -805,15 +803,6 @@ def marker_placements(udh: Embodiment, marker_set: MarkerSetLike = None) -> dict
 
 def udh_markers(udh: Embodiment, clip: MotionClip, marker_set: MarkerSetLike = None) -> dict[str, np.ndarray]:
     """{marker: (T, 3)} world positions of the virtual markers on a UDH clip."""
-    poses = batch_link_poses(
-        udh.spec,
-        clip.joint_names,
-        clip.joint_positions,
-        quat_to_matrix(clip.root_quaternion),
-        clip.root_position,
-    )
-    out = {}
-    for name, (link, offset) in marker_placements(udh, marker_set).items():
-        rot, pos = poses[link]
-        out[name] = pos + rot @ offset
-    return out
+    from hotu_drake.motion.udh_skeleton import points_on_clip
+
+    return points_on_clip(udh, clip, marker_placements(udh, marker_set))

@@ -19,17 +19,21 @@ def landmark_placements(udh: Embodiment) -> dict[str, tuple[str, np.ndarray]]:
     return _placements(udh.spec)
 
 
-def udh_landmarks(udh: Embodiment, clip: MotionClip) -> dict[str, np.ndarray]:
-    """{landmark: (T, 3)} world positions for a UDH clip."""
+def points_on_clip(
+    emb: Embodiment, clip: MotionClip, placements: dict[str, tuple[str, np.ndarray]]
+) -> dict[str, np.ndarray]:
+    """{name: (T, 3)} world positions of points fixed on links (landmarks,
+    markers), over an embodiment's clip."""
     poses = batch_link_poses(
-        udh.spec,
-        clip.joint_names,
-        clip.joint_positions,
-        quat_to_matrix(clip.root_quaternion),
-        clip.root_position,
+        emb.spec, clip.joint_names, clip.joint_positions, quat_to_matrix(clip.root_quaternion), clip.root_position
     )
     out = {}
-    for name, (link, offset) in landmark_placements(udh).items():
+    for name, (link, offset) in placements.items():
         rot, pos = poses[link]
         out[name] = pos + rot @ offset
     return out
+
+
+def udh_landmarks(udh: Embodiment, clip: MotionClip) -> dict[str, np.ndarray]:
+    """{landmark: (T, 3)} world positions for a UDH clip."""
+    return points_on_clip(udh, clip, landmark_placements(udh))

@@ -8,11 +8,11 @@ turned is judged by its posture, not its position.
 import numpy as np
 
 from hotu_drake import embodiment as embodiments
-from hotu_drake.embodiment.kinematics import batch_link_poses
 from hotu_drake.embodiment.landmarks import landmark_placements
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import FINGERS, landmarks_of
 from hotu_drake.motion.rotations import quat_to_matrix, rotation_log
+from hotu_drake.motion.udh_skeleton import points_on_clip
 from hotu_drake.retarget import frames
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
 from hotu_drake.retarget.tree import Tree
@@ -34,14 +34,7 @@ KEY_BODIES = {"left_wrist": "chest", "right_wrist": "chest", "left_ankle": "pelv
 
 def clip_landmarks(emb: embodiments.Embodiment, clip: MotionClip) -> dict[str, np.ndarray]:
     """World positions of an embodiment's landmarks over a clip."""
-    poses = batch_link_poses(
-        emb.spec, clip.joint_names, clip.joint_positions, quat_to_matrix(clip.root_quaternion), clip.root_position
-    )
-    out = {}
-    for name, (link, offset) in landmark_placements(emb.spec).items():
-        rot, pos = poses[link]
-        out[name] = pos + rot @ offset
-    return out
+    return points_on_clip(emb, clip, landmark_placements(emb.spec))
 
 
 def _heading(points: dict[str, np.ndarray]) -> np.ndarray:
