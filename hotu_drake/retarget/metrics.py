@@ -15,6 +15,7 @@ from hotu_drake.motion.rotations import quat_to_matrix, rotation_log
 from hotu_drake.motion.udh_skeleton import points_on_clip
 from hotu_drake.retarget import frames
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
+from hotu_drake.retarget.retargeter import _foot_contacts_of
 from hotu_drake.retarget.tree import Tree
 
 # The segment that shows each part's posture (torso and neck: a body frame).
@@ -115,7 +116,7 @@ def report(source: MotionClip, result: MotionClip, emb: embodiments.Embodiment, 
             errs.append(np.linalg.norm(rel_src - rel_dst, axis=-1))
         out["key_body_error"] = round(float(np.mean(errs)), 4)
     if legged:
-        contacts = detect_foot_contacts(src, source.fps)
+        contacts = _foot_contacts_of(source, source.num_frames) or detect_foot_contacts(src, source.fps)
         speeds = []
         for side in ("left", "right"):
             ankle = dst[f"{side}_ankle"]

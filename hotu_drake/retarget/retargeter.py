@@ -25,6 +25,8 @@ from hotu_drake.retarget.tree import Tree, cross
 
 FINGERS = ("thumb", "index", "middle", "ring", "little")
 SIDES = ("left", "right")
+LOCK_STEPS = 2  # leg-IK steps at most per planted foot and frame
+LOCK_TOLERANCE = 0.002  # m: a planted ankle this close to its anchor is left alone
 
 
 @dataclass
@@ -296,7 +298,9 @@ class Retargeter:
         """Retarget landmark trajectories {name: (T, 3)} sampled at `fps`."""
         frames_count = len(src["pelvis"])
         src_frames = _source_frames(src)
-        contacts = detect_foot_contacts(src, fps) if self.legged else {}
+        contacts = {}
+        if self.legged:  # the source's own foot contacts carry through human -> UDH -> robot
+            contacts = _foot_contacts_of(source, frames_count) or detect_foot_contacts(src, fps)
         stream = RetargetStream(self, fps, src)
         out_q = np.zeros((frames_count, len(self.tree.joint_names)))
         out_rotation = np.zeros((frames_count, 3, 3))
@@ -334,8 +338,11 @@ class Retargeter:
                 pose = pose.translated([drift[0], drift[1], 0.0])
                 for side in planted:
                     foot = pose.rotations[self._link_of(f"{side}_toe")] @ self.rest_frames[f"{side}_foot"]
-                    self._lock_leg(side, q, pose, anchors[side], foot)
-                    pose = self._body_pose(q, root_rotation, root_position)
+                    for _ in range(LOCK_STEPS):  # until the ankle is back on its anchor
+                        if np.linalg.norm(self.marks.position(pose, f"{side}_ankle") - anchors[side]) < LOCK_TOLERANCE:
+                            break
+                        self._lock_leg(side, q, pose, anchors[side], foot)
+                        pose = self._body_pose(q, root_rotation, root_position)
         feet = [self.soles.lowest(pose, s) for s in SIDES if s in self.soles.feet]
         if feet and min(feet) < 0.0:  # never below the floor
             root_position = root_position + [0.0, 0.0, -min(feet)]
@@ -430,6 +437,16 @@ class RetargetStream:
         self.q_previous = q.copy()
         self.count += 1
         return q.copy(), root_rotation, root_position
+
+
+def _foot_contacts_of(clip: MotionClip | None, frames_count: int) -> dict[str, np.ndarray]:
+    """A clip's recorded foot contacts, if it has them for both feet."""
+    if clip is None or clip.contacts is None or clip.num_frames != frames_count:
+        return {}
+    names = {f"{side}_foot": side for side in SIDES}
+    if not set(names) <= set(clip.contact_names):
+        return {}
+    return {side: clip.contact(name).astype(bool) for name, side in names.items()}
 
 
 def _landmarks_of_embodiment_clip(clip: MotionClip) -> dict[str, np.ndarray]:
