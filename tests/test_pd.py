@@ -59,3 +59,24 @@ def test_explicit_and_builtin_pd_give_the_same_torques():
     # The implicit PD acts on the end-of-step velocity: light links speed up within the step.
     assert builtin == pytest.approx(explicit, rel=2e-2, abs=1e-2)
     assert np.all(np.abs(explicit) <= udh.effort_limits + 1e-9)
+
+
+def test_reference_motion_source_plays_a_clip():
+    from hotu_drake.systems.reference import ReferenceMotionSource
+    from tests.clips import udh_test_clip
+
+    clip = udh_test_clip("none", frames=11, fps=10.0)
+    source = ReferenceMotionSource(clip, loop=True)
+    context = source.CreateDefaultContext()
+    context.SetTime(0.35)  # between frames 3 and 4
+    q = source.GetOutputPort("joint_positions").Eval(context)
+    assert q == pytest.approx(0.5 * (clip.joint_positions[3] + clip.joint_positions[4]))
+    state = source.GetOutputPort("state").Eval(context)
+    assert state.size == 13 + 2 * len(clip.joint_names)
+    assert np.linalg.norm(state[:4]) == pytest.approx(1.0)
+    context.SetTime(1.0 + 0.35)  # looped: the clip lasts 1 s
+    assert source.GetOutputPort("joint_positions").Eval(context) == pytest.approx(q)
+    held = ReferenceMotionSource(clip, loop=False)
+    held_context = held.CreateDefaultContext()
+    held_context.SetTime(5.0)
+    assert held.GetOutputPort("joint_positions").Eval(held_context) == pytest.approx(clip.joint_positions[-1])
