@@ -1,0 +1,69 @@
+"""The checkpoint format that training writes and `PolicySystem` loads.
+
+A `torch.save` dictionary:
+
+| key | meaning |
+|---|---|
+| format_version | 1 |
+| embodiment, hands | which model the policy drives |
+| config | `PolicyConfig` fields (observation and action sizes, part latents, hidden layers) |
+| state_dict | network weights, observation normaliser included |
+| training | free-form training configuration (for the record) |
+"""
+
+import dataclasses
+import os
+import tempfile
+from pathlib import Path
+
+import torch
+
+from hotu_drake.learning.policy import PolicyConfig, PolicyNetwork
+
+FORMAT_VERSION = 1
+
+
+class CheckpointError(Exception):
+    """A file that is not a policy checkpoint this version understands."""
+
+
+def save_checkpoint(
+    path: str | Path, network: PolicyNetwork, embodiment: str, hands: str, training: dict | None = None
+) -> Path:
+    """Write a checkpoint atomically."""
+    path = Path(path)
+    data = {
+        "format_version": FORMAT_VERSION,
+        "embodiment": embodiment,
+        "hands": hands,
+        "config": dataclasses.asdict(network.config),
+        "state_dict": network.state_dict(),
+        "training": training or {},
+    }
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        torch.save(data, tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def load_checkpoint(path: str | Path) -> tuple[PolicyNetwork, dict]:
+    """The network (in eval mode) and the checkpoint's metadata."""
+    path = Path(path)
+    try:
+        data = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as error:  # torch raises many kinds for a bad file
+        raise CheckpointError(f"{path}: not a readable checkpoint ({type(error).__name__})") from None
+    if not isinstance(data, dict) or data.get("format_version") != FORMAT_VERSION:
+        raise CheckpointError(f"{path}: not a hotu_drake policy checkpoint of format version {FORMAT_VERSION}")
+    config = data["config"]
+    config = PolicyConfig(**{**config, "hidden": tuple(config["hidden"])})
+    network = PolicyNetwork(config)
+    network.load_state_dict(data["state_dict"])
+    network.eval()
+    return network, {k: v for k, v in data.items() if k != "state_dict"}
