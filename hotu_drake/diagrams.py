@@ -93,11 +93,13 @@ def build_standing_simulation(
     drop_height: float = 0.1,
     meshcat: Meshcat | None = None,
     base_command: bool = False,
+    perturbations: list | None = None,
 ) -> StandingSimulation:
     """Drop an embodiment from `drop_height` with its PD holding the standing pose.
 
     With `base_command=True` (planar-base robots) a `PlanarBaseCommand`
     feeds the desired state and its `twist` input is exported as `twist`.
+    `perturbations` (a list of `CubeLaunch`) throws cubes at the torso.
     """
     settings = settings or PlantSettings()
     builder = DiagramBuilder()
@@ -106,7 +108,21 @@ def build_standing_simulation(
     add_ground(plant)
     if not settings.self_collision:
         disable_self_collision(plant, scene_graph, model)
+    cubes = []
+    if perturbations:
+        from hotu_drake.systems.perturbation import add_perturbation_cubes
+
+        cubes = add_perturbation_cubes(plant, perturbations)
     plant.Finalize()
+    if perturbations:
+        from hotu_drake.systems.perturbation import Perturbation
+
+        torso = plant.GetBodyByName(embodiment.key_bodies["torso"], model)
+        thrower = builder.AddNamedSystem(
+            "perturbation", Perturbation(plant, cubes, perturbations, torso, settings.time_step)
+        )
+        builder.Connect(plant.get_body_poses_output_port(), thrower.get_input_port(0))
+        builder.Connect(thrower.get_output_port(0), plant.get_applied_spatial_force_input_port())
 
     order = actuated_joint_order(plant, model)
     if order != embodiment.joint_names:
@@ -144,5 +160,9 @@ def build_standing_simulation(
         root = plant.GetBodyByName(embodiment.spec.root.name, model)
         height = embodiment.standing_root_height + drop_height
         plant.SetFreeBodyPose(plant_context, root, RigidTransform([0.0, 0.0, height]))
+    if perturbations:
+        from hotu_drake.systems.perturbation import place_perturbation_cubes
+
+        place_perturbation_cubes(plant, plant_context, cubes, perturbations)
     simulator.Initialize()
     return StandingSimulation(diagram, plant, model, simulator, embodiment, meshcat, extras)

@@ -7,7 +7,7 @@ impulse gives it the chosen speed toward the robot's target body (aimed at
 where that body is at launch). After that it flies freely.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from pydrake.geometry import Box
@@ -25,8 +25,8 @@ class CubeLaunch:
     """One throw: when, from where (world), how fast, how heavy, how big, and
     how far above the target body's origin it is aimed."""
 
-    time: float
-    start: tuple[float, float, float] = (1.5, 0.0, 1.0)
+    time: float = 1.0
+    start: list[float] = field(default_factory=lambda: [1.5, 0.0, 1.0])
     speed: float = 4.0
     mass: float = 1.0
     size: float = 0.1

@@ -1,0 +1,123 @@
+"""Run a scenario file.
+
+    python -m hotu_drake.simulate SCENARIO.yaml [--duration S] [--html OUT.html] [--json]
+
+Builds the scenario's diagram, simulates it and prints `realtime_factor`,
+`fell` (a body other than a foot touched the floor, or the pelvis dropped
+below half its standing height), `min_pelvis_height`, `max_torque_ratio`
+(largest |torque| over its effort limit) and `checksum` (of the final state,
+to pin a scenario's outcome in regression tests).
+"""
+
+import hashlib
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from hotu_drake import embodiment
+from hotu_drake.cli import ArgumentParser, positive_float, run_cli
+from hotu_drake.diagrams import StandingSimulation, build_standing_simulation
+from hotu_drake.io import write_text_atomic
+from hotu_drake.resources import scenario_path
+from hotu_drake.scenario import StandingScenario, load_standing_scenario
+
+CHUNK = 0.05  # s between checks of falls and torques
+
+
+def state_checksum(values: np.ndarray) -> str:
+    """A short digest of a state, rounded so it is stable on one machine."""
+    rounded = np.round(np.asarray(values, dtype=float), 6) + 0.0  # no negative zeros
+    return hashlib.sha256(rounded.tobytes()).hexdigest()[:16]
+
+
+def _touching_floor(sim: StandingSimulation, allowed: set) -> bool:
+    plant = sim.plant
+    context = plant.GetMyContextFromRoot(sim.simulator.get_context())
+    contacts = plant.get_contact_results_output_port().Eval(context)
+    world = plant.world_body().index()
+    for i in range(contacts.num_point_pair_contacts()):
+        info = contacts.point_pair_contact_info(i)
+        pair = {info.bodyA_index(), info.bodyB_index()}
+        if world in pair:
+            other = (pair - {world}).pop()
+            if plant.get_body(other).model_instance() == sim.model and other not in allowed:
+                return True
+    return False
+
+
+def run(scenario: StandingScenario, duration: float | None = None, meshcat=None) -> dict:
+    """Simulate a scenario; the figures `simulate` prints."""
+    emb = embodiment.load(scenario.embodiment, scenario.hands)
+    sim = build_standing_simulation(
+        emb, scenario.plant, scenario.drop_height, meshcat=meshcat, perturbations=scenario.perturbations
+    )
+    plant, context = sim.plant, sim.plant.GetMyContextFromRoot(sim.simulator.get_context())
+    feet = {
+        plant.GetBodyByName(emb.key_bodies[r], sim.model).index()
+        for r in ("left_foot", "right_foot")
+        if r in emb.key_bodies
+    }
+    nominal = emb.standing_pelvis_height
+    end = duration if duration is not None else scenario.duration
+    fell, lowest, torque_ratio, wall = False, np.inf, 0.0, 0.0
+    if meshcat is not None:
+        meshcat.StartRecording(set_visualizations_while_recording=False)
+    t = 0.0
+    while t < end - 1e-9:
+        t = min(end, t + CHUNK)
+        start = time.perf_counter()
+        sim.simulator.AdvanceTo(t)
+        wall += time.perf_counter() - start
+        torques = plant.get_net_actuation_output_port(sim.model).Eval(context)
+        torque_ratio = max(torque_ratio, float(np.max(np.abs(torques) / emb.effort_limits)))
+        if emb.floating_base:
+            height = sim.pelvis_height()
+            lowest = min(lowest, height)
+            fell = fell or height < 0.5 * nominal or _touching_floor(sim, feet)
+    if meshcat is not None:
+        meshcat.StopRecording()
+        meshcat.PublishRecording()
+    return {
+        "scenario": scenario.embodiment,
+        "duration": end,
+        "realtime_factor": round(end / wall, 2) if wall > 0 else None,
+        "fell": bool(fell),
+        "min_pelvis_height": round(float(lowest), 4) if emb.floating_base else None,
+        "max_torque_ratio": round(torque_ratio, 4),
+        "checksum": state_checksum(plant.GetPositionsAndVelocities(context)),
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = ArgumentParser(prog="python -m hotu_drake.simulate", description="Build and run a scenario file.")
+    parser.add_argument("scenario", help="a scenario YAML file, or the name of a shipped one (e.g. stand_h1)")
+    parser.add_argument("--duration", type=positive_float, help="simulated seconds (default: the scenario's)")
+    parser.add_argument("--html", help="write a Meshcat replay of the run")
+    parser.add_argument("--json", action="store_true", help="print the figures as JSON")
+    args = parser.parse_args(argv)
+    path = Path(args.scenario)
+    if not path.exists() and not path.suffix:
+        path = scenario_path(args.scenario)
+    scenario = load_standing_scenario(path)
+    meshcat = None
+    if args.html:
+        from pydrake.geometry import StartMeshcat
+
+        meshcat = StartMeshcat()
+    figures = run(scenario, args.duration, meshcat)
+    figures["scenario"] = path.stem
+    if args.html:
+        write_text_atomic(args.html, meshcat.StaticHtml())
+    if args.json:
+        print(json.dumps(figures, indent=2))
+    else:
+        for key, value in figures.items():
+            print(f"{key:18s} {value}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(run_cli(main))
