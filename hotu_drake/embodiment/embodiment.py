@@ -144,16 +144,20 @@ class Embodiment:
             raise ValueError(f"unknown format {fmt!r}; choose from {', '.join(EXPORT_FORMATS)}")
         return EXPORT_FORMATS[fmt](self.spec)
 
-    def add_to_plant(self, plant, model_name_prefix: str = ""):
+    def add_to_plant(self, plant, model_name_prefix: str = "", builtin_pd: bool = True):
         """Parse this embodiment into a (not yet finalized) MultibodyPlant.
 
         Returns the new model instance. Registers geometry when the plant
-        is connected to a SceneGraph.
+        is connected to a SceneGraph. `builtin_pd=False` leaves out the
+        plant's implicit PD, for an explicit controller on the actuation
+        input (Drake's PD-controlled actuators would absorb that input).
         """
         from pydrake.multibody.parsing import Parser
 
+        from hotu_drake.embodiment.formats.sdf import to_sdf
+
         parser = Parser(plant, model_name_prefix) if model_name_prefix else Parser(plant)
-        (model,) = parser.AddModelsFromString(self.model_text("sdf"), "sdf")
+        (model,) = parser.AddModelsFromString(to_sdf(self.spec, controller_gains=builtin_pd), "sdf")
         return model
 
     def __repr__(self) -> str:

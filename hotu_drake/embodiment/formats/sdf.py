@@ -30,8 +30,12 @@ def _range(j) -> str:
     return f"<lower>{fmt(j.lower)}</lower><upper>{fmt(j.upper)}</upper>"
 
 
-def to_sdf(spec: EmbodimentSpec) -> str:
-    """The embodiment as an SDFormat string."""
+def to_sdf(spec: EmbodimentSpec, controller_gains: bool = True) -> str:
+    """The embodiment as an SDFormat string.
+
+    Without `controller_gains` the actuators carry no built-in PD: a plant
+    step then applies exactly the actuation input (for an explicit PD).
+    """
     out = [
         '<?xml version="1.0"?>',
         f"<!-- {header(spec, 'SDFormat 1.9')} -->",
@@ -82,7 +86,11 @@ def to_sdf(spec: EmbodimentSpec) -> str:
             "      </axis>",
             f"      <drake:rotor_inertia>{fmt(j.armature)}</drake:rotor_inertia>",
             "      <drake:gear_ratio>1</drake:gear_ratio>",
-            f"      <drake:controller_gains p={quoteattr(fmt(j.kp))} d={quoteattr(fmt(j.kd))}/>",
+            *(
+                [f"      <drake:controller_gains p={quoteattr(fmt(j.kp))} d={quoteattr(fmt(j.kd))}/>"]
+                if controller_gains
+                else []
+            ),
             "    </joint>",
         ]
     for name, members in filter_groups(spec).items():
