@@ -31,6 +31,9 @@ class PlantSettings:
     discrete_contact_approximation: str = "sap"
     contact_model: str = "point"
     self_collision: bool = True
+    # "implicit": the plant's built-in PD (stable at 5 ms); "explicit": a
+    # SaturatedPdController on the actuation input (needs about 0.5 ms).
+    controller: str = "implicit"
 
     def plant_config(self) -> MultibodyPlantConfig:
         return MultibodyPlantConfig(
@@ -104,7 +107,12 @@ def build_standing_simulation(
     settings = settings or PlantSettings()
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlant(settings.plant_config(), builder)
-    model = embodiment.add_to_plant(plant)
+    explicit = settings.controller == "explicit"
+    if settings.controller not in ("implicit", "explicit"):
+        raise ValueError(f"controller must be 'implicit' or 'explicit', not {settings.controller!r}")
+    if explicit and base_command:
+        raise ValueError("the planar base command drives the built-in PD; use the implicit controller")
+    model = embodiment.add_to_plant(plant, builtin_pd=not explicit)
     add_ground(plant)
     if not settings.self_collision:
         disable_self_collision(plant, scene_graph, model)
@@ -129,6 +137,17 @@ def build_standing_simulation(
         raise RuntimeError(f"{embodiment.name}: actuator order differs from the spec's joint order")
     q_stand = embodiment.standing_pose
     extras = {}
+    if explicit:
+        from pydrake.systems.primitives import ConstantVectorSource
+
+        from hotu_drake.systems.pd import SaturatedPdController
+
+        controller = builder.AddNamedSystem("pd", SaturatedPdController(plant, model, embodiment))
+        targets = builder.AddNamedSystem("standing_targets", ConstantVectorSource(q_stand))
+        builder.Connect(plant.get_state_output_port(model), controller.get_input_port(0))
+        builder.Connect(targets.get_output_port(), controller.get_input_port(1))
+        builder.Connect(controller.get_output_port(0), plant.get_actuation_input_port(model))
+        extras["controller"] = controller
     if base_command:
         from hotu_drake.systems import PlanarBaseCommand
 
@@ -146,12 +165,12 @@ def build_standing_simulation(
     simulator = Simulator(diagram)
     context = simulator.get_mutable_context()
     plant_context = plant.GetMyMutableContextFromRoot(context)
-    if not base_command:
+    if base_command:
+        diagram.get_input_port(0).FixValue(context, np.zeros(3))
+    elif not explicit:
         plant.get_desired_state_input_port(model).FixValue(
             plant_context, np.concatenate([q_stand, np.zeros_like(q_stand)])
         )
-    else:
-        diagram.get_input_port(0).FixValue(context, np.zeros(3))
     positions = plant.GetPositions(plant_context)
     for name, q in zip(order, q_stand):
         positions[plant.GetJointByName(name, model).position_start()] = q

@@ -34,6 +34,8 @@ class StandingScenario:
             raise UserError(f"{source}: hands must be one of {', '.join(HANDS_VARIANTS)}")
         if self.plant.time_step <= 0 or self.duration <= 0 or self.drop_height < 0:
             raise UserError(f"{source}: time_step and duration must be > 0, drop_height >= 0")
+        if self.plant.controller not in ("implicit", "explicit"):
+            raise UserError(f"{source}: controller must be implicit or explicit")
         for launch in self.perturbations:
             if len(launch.start) != 3 or launch.speed <= 0 or launch.mass <= 0 or launch.size <= 0:
                 raise UserError(f"{source}: a perturbation needs a 3-D start and positive speed, mass, size")
