@@ -4,7 +4,7 @@ import numpy as np
 
 from hotu_drake import embodiment
 from hotu_drake.motion.clip import MotionClip
-from hotu_drake.motion.rotations import angular_velocity, finite_difference, matrix_to_quat
+from hotu_drake.motion.rotations import matrix_to_quat
 
 
 def udh_test_clip(hands: str = "none", frames: int = 240, fps: float = 120.0, seed: int = 0) -> MotionClip:
@@ -38,18 +38,6 @@ def udh_test_clip(hands: str = "none", frames: int = 240, fps: float = 120.0, se
     rotation[:, 2, 2] = 1.0
     quaternion = matrix_to_quat(rotation)
     position = np.stack([0.3 * t, 0.1 * t, np.full(frames, udh.standing_root_height)], axis=1)
-    return MotionClip(
-        embodiment="udh",
-        source="tests/udh_test_clip",
-        fps=fps,
-        joint_names=udh.joint_names,
-        joint_positions=q,
-        joint_velocities=finite_difference(q, fps),
-        root_position=position,
-        root_quaternion=quaternion,
-        root_linear_velocity=finite_difference(position, fps),
-        root_angular_velocity=angular_velocity(quaternion, fps),
-        key_body_names=[],
-        key_body_positions=np.zeros((frames, 0, 3)),
-        part_index=udh.parts,
+    return MotionClip.from_positions(
+        "udh", "tests/udh_test_clip", fps, udh.joint_names, q, position, quaternion, part_index=udh.parts
     )

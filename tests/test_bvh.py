@@ -18,7 +18,7 @@ from hotu_drake.motion.bvh import (
 )
 from hotu_drake.motion.clip import ClipFormatError, MotionClip
 from hotu_drake.motion.human import REQUIRED_LANDMARKS, landmarks_of
-from hotu_drake.motion.rotations import angular_velocity, finite_difference, matrix_to_quat
+from hotu_drake.motion.rotations import matrix_to_quat
 from hotu_drake.motion.skeleton_maps import JointNames, best_family
 from hotu_drake.motion.udh_skeleton import udh_landmarks
 from tests.conftest import SHARED
@@ -51,21 +51,7 @@ def udh_clip(hands: str = "none", frames: int = 30, fps: float = 30.0):
     q = np.clip(q, lower, upper)
     root = np.stack([0.3 * t, 0.1 * np.sin(t), 0.9 + 0.02 * np.sin(3 * t)], axis=1)
     quat = matrix_to_quat(_rot(2, 2.5 + 0.8 * t) @ _rot(1, 0.2 * np.sin(2 * t)))
-    clip = MotionClip(
-        embodiment="udh",
-        source="test",
-        fps=fps,
-        joint_names=list(udh.joint_names),
-        joint_positions=q,
-        joint_velocities=finite_difference(q, fps),
-        root_position=root,
-        root_quaternion=quat,
-        root_linear_velocity=finite_difference(root, fps),
-        root_angular_velocity=angular_velocity(quat, fps),
-        key_body_names=[],
-        key_body_positions=np.zeros((frames, 0, 3)),
-        part_index={},
-    )
+    clip = MotionClip.from_positions("udh", "test", fps, list(udh.joint_names), q, root, quat, part_index={})
     return udh, clip
 
 

@@ -45,20 +45,8 @@ def make_udh_clip(udh, frames: int = FRAMES, fps: float = FPS, seed: int = 0) ->
         np.stack([np.cos(pitch / 2), zeros, np.sin(pitch / 2), zeros], 1),
     )
     root = np.stack([0.3 * t, 0.05 * np.sin(t), udh.standing_root_height + 0.02 * np.sin(2 * t)], 1)
-    return MotionClip(
-        embodiment="udh",
-        source="test",
-        fps=fps,
-        joint_names=list(udh.joint_names),
-        joint_positions=q,
-        joint_velocities=finite_difference(q, fps),
-        root_position=root,
-        root_quaternion=quaternion,
-        root_linear_velocity=finite_difference(root, fps),
-        root_angular_velocity=angular_velocity(quaternion, fps),
-        key_body_names=[],
-        key_body_positions=np.zeros((frames, 0, 3)),
-        part_index=udh.parts,
+    return MotionClip.from_positions(
+        "udh", "test", fps, list(udh.joint_names), q, root, quaternion, part_index=udh.parts
     )
 
 

@@ -86,6 +86,45 @@ class MotionClip:
     def __post_init__(self) -> None:
         self.validate()
 
+    @classmethod
+    def from_positions(
+        cls,
+        embodiment: str,
+        source: str,
+        fps: float,
+        joint_names: list[str],
+        joint_positions: np.ndarray,
+        root_position: np.ndarray,
+        root_quaternion: np.ndarray,
+        key_body_names: list[str] | None = None,
+        key_body_positions: np.ndarray | None = None,
+        **optional,
+    ) -> "MotionClip":
+        """A clip whose velocities are the finite differences of its positions
+        (the root's quaternions made sign-continuous first). `optional` takes
+        `part_index`, `object_names`, `object_poses`, `contact_names`, `contacts`."""
+        from hotu_drake.motion.rotations import angular_velocity, finite_difference, make_continuous
+
+        joint_positions = np.asarray(joint_positions, dtype=float)
+        root_position = np.asarray(root_position, dtype=float)
+        quaternion = make_continuous(root_quaternion)
+        frames = len(root_position)
+        return cls(
+            embodiment=embodiment,
+            source=source,
+            fps=float(fps),
+            joint_names=list(joint_names),
+            joint_positions=joint_positions,
+            joint_velocities=finite_difference(joint_positions, fps),
+            root_position=root_position,
+            root_quaternion=quaternion,
+            root_linear_velocity=finite_difference(root_position, fps),
+            root_angular_velocity=angular_velocity(quaternion, fps),
+            key_body_names=list(key_body_names or []),
+            key_body_positions=np.zeros((frames, 0, 3)) if key_body_positions is None else key_body_positions,
+            **optional,
+        )
+
     @property
     def num_frames(self) -> int:
         return int(self.root_position.shape[0])

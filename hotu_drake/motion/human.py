@@ -12,7 +12,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from hotu_drake.motion.clip import ClipFormatError, MotionClip
-from hotu_drake.motion.rotations import angular_velocity, finite_difference, make_continuous, matrix_to_quat
+from hotu_drake.motion.rotations import matrix_to_quat
 
 HUMAN = "human"
 SIDES = ("left", "right")
@@ -81,20 +81,17 @@ def human_clip(
     if not np.all(np.isfinite(positions)):
         raise ClipFormatError(f"{source}: landmark positions contain NaN or infinite values")
     root_position = positions[:, names.index("pelvis")]
-    quaternion = make_continuous(matrix_to_quat(pelvis_frames(landmarks)))
-    return MotionClip(
-        embodiment=HUMAN,
-        source=source,
-        fps=float(fps),
-        joint_names=[],
-        joint_positions=np.zeros((len(positions), 0)),
-        joint_velocities=np.zeros((len(positions), 0)),
-        root_position=root_position,
-        root_quaternion=quaternion,
-        root_linear_velocity=finite_difference(root_position, fps),
-        root_angular_velocity=angular_velocity(quaternion, fps),
-        key_body_names=names,
-        key_body_positions=positions,
+    quaternion = matrix_to_quat(pelvis_frames(landmarks))
+    return MotionClip.from_positions(
+        HUMAN,
+        source,
+        fps,
+        [],
+        np.zeros((len(positions), 0)),
+        root_position,
+        quaternion,
+        names,
+        positions,
         object_names=list(object_names or []),
         object_poses=object_poses,
         contact_names=list(contact_names or []),

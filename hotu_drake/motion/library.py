@@ -34,7 +34,7 @@ from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.kinematics import batch_link_poses
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import human_clip
-from hotu_drake.motion.rotations import angular_velocity, finite_difference, make_continuous, matrix_to_quat
+from hotu_drake.motion.rotations import finite_difference, matrix_to_quat
 from hotu_drake.motion.synthesis import (
     GRAVITY,
     SIDES,
@@ -775,24 +775,21 @@ def _foot_contacts(udh: Embodiment, body: Body, poses: dict, fps: float) -> dict
 def _to_clip(udh: Embodiment, body: Body, plan: Plan, name: str) -> MotionClip:
     q = realize(body, plan)
     fps = plan.fps
-    quat = make_continuous(matrix_to_quat(plan.pelvis_rot))
+    quat = matrix_to_quat(plan.pelvis_rot)
     poses = batch_link_poses(udh.spec, udh.joint_names, q, plan.pelvis_rot, plan.pelvis)
     key_links = list(udh.key_bodies.values())
     contacts = _foot_contacts(udh, body, poses, fps) | plan.contacts
     objects = list(plan.objects)
-    return MotionClip(
-        embodiment="udh",
-        source=f"hotu_drake/library/{name}",
-        fps=float(fps),
-        joint_names=list(udh.joint_names),
-        joint_positions=q,
-        joint_velocities=finite_difference(q, fps),
-        root_position=plan.pelvis.copy(),
-        root_quaternion=quat,
-        root_linear_velocity=finite_difference(plan.pelvis, fps),
-        root_angular_velocity=angular_velocity(quat, fps),
-        key_body_names=key_links,
-        key_body_positions=np.stack([poses[link][1] for link in key_links], axis=1),
+    return MotionClip.from_positions(
+        "udh",
+        f"hotu_drake/library/{name}",
+        fps,
+        udh.joint_names,
+        q,
+        plan.pelvis.copy(),
+        quat,
+        key_links,
+        np.stack([poses[link][1] for link in key_links], axis=1),
         part_index={part: list(joints) for part, joints in udh.parts.items()},
         object_names=objects,
         object_poses=np.stack([plan.objects[o] for o in objects], axis=1) if objects else None,

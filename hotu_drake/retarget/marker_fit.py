@@ -25,7 +25,7 @@ from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.kinematics import batch_link_poses
 from hotu_drake.motion.c3d import MarkerSetLike, marker_placements, markers_to_landmarks, udh_markers
 from hotu_drake.motion.clip import ClipFormatError, MotionClip
-from hotu_drake.motion.rotations import angular_velocity, finite_difference, make_continuous, quat_to_matrix
+from hotu_drake.motion.rotations import quat_to_matrix
 
 MARKER_WEIGHT = 100.0  # per marker, on squared metres
 SMOOTHNESS = 1e-3  # on squared change of every position from the previous frame
@@ -286,24 +286,21 @@ def _kabsch(model: np.ndarray, measured: np.ndarray) -> tuple[np.ndarray, np.nda
 
 def _clip(udh: Embodiment, fit: _Fit, q: np.ndarray, fps: float, source: str) -> MotionClip:
     """The fitted plant positions as a UDH `MotionClip` with velocities and key bodies."""
-    quaternion = make_continuous(q[:, fit.root_q : fit.root_q + 4])
+    quaternion = q[:, fit.root_q : fit.root_q + 4]
     root_position = q[:, fit.root_q + 4 : fit.root_q + 7]
     joints = q[:, fit.joint_q]
     poses = batch_link_poses(udh.spec, udh.joint_names, joints, quat_to_matrix(quaternion), root_position)
     links = list(dict.fromkeys(udh.key_bodies.values()))  # key-body links, as the retargeter names them
     key_positions = np.stack([poses[link][1] for link in links], axis=1)
-    return MotionClip(
-        embodiment=udh.name,
-        source=source,
-        fps=float(fps),
-        joint_names=list(udh.joint_names),
-        joint_positions=joints,
-        joint_velocities=finite_difference(joints, fps),
-        root_position=root_position,
-        root_quaternion=quaternion,
-        root_linear_velocity=finite_difference(root_position, fps),
-        root_angular_velocity=angular_velocity(quaternion, fps),
-        key_body_names=links,
-        key_body_positions=key_positions,
+    return MotionClip.from_positions(
+        udh.name,
+        source,
+        fps,
+        udh.joint_names,
+        joints,
+        root_position,
+        quaternion,
+        links,
+        key_positions,
         part_index={part: list(joints) for part, joints in udh.parts.items()},
     )

@@ -16,7 +16,7 @@ from hotu_drake.embodiment.hands import COUPLED_JOINTS
 from hotu_drake.embodiment.landmarks import landmark_placements
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import landmarks_of
-from hotu_drake.motion.rotations import angular_velocity, finite_difference, make_continuous, matrix_to_quat
+from hotu_drake.motion.rotations import matrix_to_quat
 from hotu_drake.retarget import frames
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
 from hotu_drake.retarget.part_ik import PartProblem
@@ -361,7 +361,7 @@ class Retargeter:
         q[joints] += problem.step(rows, q[joints], q[joints])
 
     def _clip(self, q, rotations, positions, fps, source, contacts) -> MotionClip:
-        quaternions = make_continuous(matrix_to_quat(rotations))
+        quaternions = matrix_to_quat(rotations)
         key_names = list(self.embodiment.key_bodies.values())
         key_names = list(dict.fromkeys(key_names))
         key_index = [self.tree.link_index[n] for n in key_names]
@@ -371,19 +371,16 @@ class Retargeter:
             key_positions[t] = pose.positions[key_index]
         contact_names = [f"{s}_foot" for s in SIDES if s in contacts]
         contact_values = np.stack([contacts[s] for s in SIDES if s in contacts], axis=1) if contacts else None
-        return MotionClip(
-            embodiment=self.embodiment.name,
-            source=source.source if source is not None else "landmarks",
-            fps=fps,
-            joint_names=list(self.tree.joint_names),
-            joint_positions=q,
-            joint_velocities=finite_difference(q, fps),
-            root_position=positions,
-            root_quaternion=quaternions,
-            root_linear_velocity=finite_difference(positions, fps),
-            root_angular_velocity=angular_velocity(quaternions, fps),
-            key_body_names=key_names,
-            key_body_positions=key_positions,
+        return MotionClip.from_positions(
+            self.embodiment.name,
+            source.source if source is not None else "landmarks",
+            fps,
+            self.tree.joint_names,
+            q,
+            positions,
+            quaternions,
+            key_names,
+            key_positions,
             part_index=self.embodiment.parts,
             object_names=list(source.object_names) if source is not None else [],
             object_poses=source.object_poses if source is not None else None,
