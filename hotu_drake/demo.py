@@ -6,7 +6,9 @@ by side, coloured by functional part. Then retargets two generated
 demonstrations, a walk and a box carry, onto all six (human -> UDH ->
 robots) and writes their side-by-side replays `DIR/walk.html` and
 `DIR/box_carry.html` (the UDH with its fingers, the robots without, to keep
-the pages light) and the clips under `DIR/clips/`.
+the pages light) and the clips under `DIR/clips/`. Last, it runs the
+cube-perturbation scenario of each legged robot and writes its Meshcat
+replay `DIR/perturb_<robot>.html`.
 """
 
 import sys
@@ -51,7 +53,31 @@ def main(argv: list[str] | None = None) -> int:
             clip.save(out / "clips" / f"{motion}_{clip.embodiment}.npz")
         replay = write_replay(out / f"{motion}.html", clips, source)
         print(f"wrote {replay}: {motion} retargeted onto {', '.join(c.embodiment for c in clips)}")
+    write_perturbation_replays(out)
     return 0
+
+
+def write_perturbation_replays(out: Path) -> list[Path]:
+    """Run `perturb_<robot>.yaml` for every legged robot, recording Meshcat."""
+    from pydrake.geometry import StartMeshcat
+
+    from hotu_drake.io import write_text_atomic
+    from hotu_drake.resources import scenario_path
+    from hotu_drake.scenario import load_scenario
+    from hotu_drake.simulate import run
+
+    meshcat = StartMeshcat()
+    written = []
+    for name in embodiment.EMBODIMENT_NAMES:
+        path = scenario_path(f"perturb_{name}")
+        if not path.is_file():
+            continue
+        meshcat.Delete()
+        figures = run(load_scenario(path), meshcat=meshcat)
+        written.append(write_text_atomic(out / f"perturb_{name}.html", meshcat.StaticHtml()))
+        outcome = "fell" if figures["fell"] else "stayed up"
+        print(f"wrote {written[-1]}: cubes thrown at {name}, which {outcome}")
+    return written
 
 
 if __name__ == "__main__":

@@ -1,46 +1,61 @@
 """Builders of simulation diagrams: a MultibodyPlant plus the pipeline's systems.
 
-This first builder stands an embodiment on the floor with the plant's
-built-in PD holding its default pose; later scenarios extend it.
+`build_simulation(scenario)` wires what a `Scenario` describes:
+
+    PD targets ──> plant (built-in PD, or SaturatedPdController ──> actuation)
+      from: the standing pose | ReferenceMotionSource | PolicySystem
+            (observation ──> policy ──> action ──> targets, at 30 Hz)
+    plant ──> ObservationSystem, InteractionGraphSystem (with task objects)
+    Perturbation, ObjectHolder ──> applied spatial forces ──> plant
+    scene graph ──> Meshcat (when given one)
+
+Every system is added by name (`pd`, `reference`, `policy`, `observation`,
+`interaction_graph`, `perturbation`, `object_holder`, ...) and its useful
+outputs are exported from the diagram under the same names.
 """
 
 from dataclasses import dataclass, field
 
 import numpy as np
-from pydrake.geometry import Box, CollisionFilterDeclaration, GeometrySet, Meshcat, MeshcatVisualizer
-from pydrake.math import RigidTransform
+from pydrake.common.eigen_geometry import Quaternion
+from pydrake.geometry import (
+    Box,
+    CollisionFilterDeclaration,
+    GeometrySet,
+    Meshcat,
+    MeshcatVisualizer,
+    MeshcatVisualizerParams,
+    Role,
+)
+from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.multibody.math import SpatialVelocity
 from pydrake.multibody.plant import (
     AddMultibodyPlant,
     CoulombFriction,
+    ExternallyAppliedSpatialForceMultiplexer,
     MultibodyPlant,
-    MultibodyPlantConfig,
 )
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.primitives import AffineSystem, ConstantVectorSource, Multiplexer
 
+from hotu_drake import embodiment as embodiments
+from hotu_drake.cli import UserError
 from hotu_drake.embodiment import Embodiment
+from hotu_drake.motion.clip import MotionClip
+from hotu_drake.objects import add_object
+from hotu_drake.scenario import InitialCondition, PlantSettings, Scenario
+from hotu_drake.systems.base_command import PlanarBaseCommand
+from hotu_drake.systems.interaction_graph import InteractionGraphSystem
+from hotu_drake.systems.object_holder import ObjectHolder
+from hotu_drake.systems.observation import ObservationSystem
+from hotu_drake.systems.pd import ActionScaling, SaturatedPdController
+from hotu_drake.systems.perturbation import Perturbation, add_perturbation_cubes, place_perturbation_cubes
+from hotu_drake.systems.reference import ReferenceMotionSource
+
+__all__ = ["PlantSettings", "Simulation", "build_simulation", "build_standing_simulation"]
 
 GROUND_FRICTION = 1.0
-
-
-@dataclass
-class PlantSettings:
-    """The plant's discretisation and contact model."""
-
-    time_step: float = 0.005
-    discrete_contact_approximation: str = "sap"
-    contact_model: str = "point"
-    self_collision: bool = True
-    # "implicit": the plant's built-in PD (stable at 5 ms); "explicit": a
-    # SaturatedPdController on the actuation input (needs about 0.5 ms).
-    controller: str = "implicit"
-
-    def plant_config(self) -> MultibodyPlantConfig:
-        return MultibodyPlantConfig(
-            time_step=self.time_step,
-            discrete_contact_approximation=self.discrete_contact_approximation,
-            contact_model=self.contact_model,
-        )
 
 
 def add_ground(plant: MultibodyPlant, friction: float = GROUND_FRICTION, size: float = 40.0) -> None:
@@ -66,8 +81,8 @@ def actuated_joint_order(plant: MultibodyPlant, model) -> list[str]:
 
 
 @dataclass
-class StandingSimulation:
-    """A built standing diagram and handles to its parts."""
+class Simulation:
+    """A built diagram, its simulator and handles to its parts."""
 
     diagram: Diagram
     plant: MultibodyPlant
@@ -75,19 +90,224 @@ class StandingSimulation:
     simulator: Simulator
     embodiment: Embodiment
     meshcat: Meshcat | None = None
-    extras: dict = field(default_factory=dict)
+    systems: dict = field(default_factory=dict)  # name -> system added to the diagram
+    objects: dict = field(default_factory=dict)  # object name -> model instance
+    reference: MotionClip | None = None
+
+    @property
+    def extras(self) -> dict:
+        """The added systems by name (older name of `systems`)."""
+        return self.systems
+
+    def plant_context(self):
+        return self.plant.GetMyContextFromRoot(self.simulator.get_context())
 
     def pelvis_height(self) -> float:
-        context = self.plant.GetMyContextFromRoot(self.simulator.get_context())
         body = self.plant.GetBodyByName(self.embodiment.key_bodies["pelvis"], self.model)
-        return float(self.plant.EvalBodyPoseInWorld(context, body).translation()[2])
+        return float(self.plant.EvalBodyPoseInWorld(self.plant_context(), body).translation()[2])
 
     def joint_positions(self) -> dict[str, float]:
-        context = self.plant.GetMyContextFromRoot(self.simulator.get_context())
+        context = self.plant_context()
         return {
             name: float(self.plant.GetJointByName(name, self.model).GetOnePosition(context))
             for name in self.embodiment.joint_names
         }
+
+    def output(self, name: str) -> np.ndarray:
+        """Evaluate one of the diagram's exported vector outputs (e.g. `observation`)."""
+        return self.diagram.GetOutputPort(name).Eval(self.simulator.get_context())
+
+
+StandingSimulation = Simulation
+
+
+def reference_clip(scenario: Scenario, emb: Embodiment) -> MotionClip | None:
+    """The scenario's reference motion on its embodiment, or None."""
+    motion = scenario.reference.motion
+    if not motion:
+        return None
+    from hotu_drake.motion.library import MOTIONS
+
+    if motion in MOTIONS:
+        from hotu_drake.retarget.pipeline import library_clip
+
+        clip = library_clip(motion, emb.name, emb.hands)
+    else:
+        path = scenario.resolve(motion)
+        if path.suffix != ".npz" or not path.is_file():
+            raise UserError(f"{path}: reference must be a library motion ({', '.join(MOTIONS)}) or a .npz clip")
+        clip = MotionClip.load(path)
+    if list(clip.joint_names) != list(emb.joint_names):
+        raise UserError(f"{motion}: the reference clip is for '{clip.embodiment}', not {emb.name} hands={emb.hands}")
+    return clip
+
+
+def build_simulation(
+    scenario: Scenario,
+    meshcat: Meshcat | None = None,
+    embodiment: Embodiment | None = None,
+    base_command: bool = False,
+) -> Simulation:
+    """Build the diagram a scenario describes and initialise its simulator.
+
+    `embodiment` overrides the scenario's (e.g. a resized UDH). With
+    `base_command=True` (planar-base robots) a `PlanarBaseCommand` feeds the
+    PD and its `twist` input is exported as `twist`.
+    """
+    settings = scenario.plant
+    if settings.controller not in ("implicit", "explicit"):
+        raise ValueError(f"controller must be 'implicit' or 'explicit', not {settings.controller!r}")
+    explicit = settings.controller == "explicit"
+    emb = embodiment or embodiments.load(scenario.embodiment, scenario.hands)
+    clip = reference_clip(scenario, emb)
+    policy = _load_policy(scenario, emb)
+    if base_command and (explicit or clip is not None or policy is not None):
+        raise ValueError("the planar base command drives the built-in PD on its own")
+
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlant(settings.plant_config(), builder)
+    model = emb.add_to_plant(plant, builtin_pd=not explicit)
+    root = plant.GetBodyByName(emb.spec.root.name, model)
+    fixed = scenario.fixed_base and emb.floating_base
+    if fixed:
+        height = emb.standing_root_height + scenario.initial.drop_height
+        plant.WeldFrames(plant.world_frame(), root.body_frame(), RigidTransform([0.0, 0.0, height]))
+    add_ground(plant)
+    if not settings.self_collision:
+        disable_self_collision(plant, scene_graph, model)
+    objects = _add_objects(plant, scenario)
+    cubes = []
+    if scenario.perturbations:
+        cubes = add_perturbation_cubes(plant, scenario.perturbations)
+    plant.Finalize()
+    order = actuated_joint_order(plant, model)
+    if order != emb.joint_names:
+        raise RuntimeError(f"{emb.name}: actuator order differs from the spec's joint order")
+
+    systems: dict = {}
+    n = len(emb.joint_names)
+    add = builder.AddNamedSystem
+
+    # The PD targets: positions (and, for the built-in PD, velocities).
+    if policy is not None:
+        observation = systems["observation"] = add("observation", ObservationSystem(plant, model, emb))
+        builder.Connect(plant.get_state_output_port(model), observation.get_input_port(0))
+        systems["policy"] = add("policy", policy)
+        builder.Connect(observation.GetOutputPort("observation"), policy.GetInputPort("observation"))
+        for port in range(1, policy.num_input_ports()):
+            latent = policy.get_input_port(port)
+            source = add(f"{latent.get_name()}_source", ConstantVectorSource(np.zeros(latent.size())))
+            builder.Connect(source.get_output_port(), latent)
+        # a -> q* = offset + scale a (and v* = 0): a C++ system, no Python per step.
+        scaling = ActionScaling.for_embodiment(emb)
+        rows = n if explicit else 2 * n
+        gain = np.zeros((rows, n))
+        gain[:n] = np.diag(scaling.scale)
+        offset = np.zeros(rows)
+        offset[:n] = scaling.offset
+        targets = add("action_to_targets", _static_gain(gain, offset))
+        builder.Connect(policy.GetOutputPort("action"), targets.get_input_port())
+        target_port = targets.get_output_port()
+    elif clip is not None:
+        reference = systems["reference"] = add("reference", _reference_source(scenario, emb, clip, fixed))
+        builder.ExportOutput(reference.GetOutputPort("joint_positions"), "reference_joint_positions")
+        if explicit:
+            target_port = reference.GetOutputPort("joint_positions")
+        else:
+            desired = add("reference_desired_state", Multiplexer([n, n]))
+            builder.Connect(reference.GetOutputPort("joint_positions"), desired.get_input_port(0))
+            builder.Connect(reference.GetOutputPort("joint_velocities"), desired.get_input_port(1))
+            target_port = desired.get_output_port()
+    elif base_command:
+        base = tuple(order.index(j) for j in emb.base_joints)
+        if len(base) != 3:
+            raise ValueError(f"{emb.name} has no planar base to command")
+        command = systems["base_command"] = add(
+            "base_command", PlanarBaseCommand(emb.standing_pose, base, settings.time_step)
+        )
+        builder.ExportInput(command.get_input_port(), "twist")
+        target_port = command.get_output_port()
+    else:
+        standing = emb.standing_pose if explicit else np.concatenate([emb.standing_pose, np.zeros(n)])
+        target_port = add("standing_targets", ConstantVectorSource(standing)).get_output_port()
+
+    if explicit:
+        controller = systems["pd"] = add("pd", SaturatedPdController(plant, model, emb))
+        builder.Connect(plant.get_state_output_port(model), controller.get_input_port(0))
+        builder.Connect(target_port, controller.get_input_port(1))
+        builder.Connect(controller.get_output_port(0), plant.get_actuation_input_port(model))
+    else:
+        builder.Connect(target_port, plant.get_desired_state_input_port(model))
+
+    if scenario.observation and "observation" not in systems:
+        observation = systems["observation"] = add("observation", ObservationSystem(plant, model, emb))
+        builder.Connect(plant.get_state_output_port(model), observation.get_input_port(0))
+    if "observation" in systems:
+        builder.ExportOutput(systems["observation"].GetOutputPort("observation"), "observation")
+        builder.ExportOutput(systems["observation"].GetOutputPort("amp_observation"), "amp_observation")
+    if "policy" in systems:
+        builder.ExportOutput(systems["policy"].GetOutputPort("action"), "action")
+
+    graph_objects = {
+        o.instance_name: plant.GetBodyByName(o.kind, objects[o.instance_name])
+        for o in scenario.objects
+        if _is_task_object(o)
+    }
+    if graph_objects and {"left_hand", "right_hand", "pelvis"} <= emb.key_bodies.keys():
+        graph = systems["interaction_graph"] = add(
+            "interaction_graph", InteractionGraphSystem(plant, model, emb, graph_objects)
+        )
+        goals = [o.target or o.position for o in scenario.objects if o.instance_name in graph_objects]
+        targets = add("object_targets", ConstantVectorSource(np.ravel(goals).astype(float)))
+        builder.Connect(plant.get_body_poses_output_port(), graph.GetInputPort("body_poses"))
+        builder.Connect(plant.get_contact_results_output_port(), graph.GetInputPort("contact_results"))
+        builder.Connect(targets.get_output_port(), graph.GetInputPort("object_targets"))
+        builder.ExportOutput(graph.GetOutputPort("interaction"), "interaction")
+        builder.ExportOutput(graph.GetOutputPort("graph"), "interaction_graph")
+
+    force_sources = []
+    if scenario.perturbations:
+        torso = plant.GetBodyByName(emb.key_bodies["torso"], model)
+        thrower = systems["perturbation"] = add(
+            "perturbation", Perturbation(plant, cubes, scenario.perturbations, torso, settings.time_step)
+        )
+        builder.Connect(plant.get_body_poses_output_port(), thrower.get_input_port(0))
+        force_sources.append(thrower.get_output_port(0))
+    held = [o for o in scenario.objects if o.held]
+    if held:
+        bodies = [plant.GetBodyByName(o.kind, objects[o.instance_name]) for o in held]
+        holder = systems["object_holder"] = add("object_holder", ObjectHolder(plant, model, bodies, settings.time_step))
+        builder.Connect(plant.get_contact_results_output_port(), holder.GetInputPort("contact_results"))
+        force_sources.append(holder.GetOutputPort("spatial_forces"))
+    if len(force_sources) == 1:
+        builder.Connect(force_sources[0], plant.get_applied_spatial_force_input_port())
+    elif force_sources:
+        mux = add("applied_forces", ExternallyAppliedSpatialForceMultiplexer(len(force_sources)))
+        for i, port in enumerate(force_sources):
+            builder.Connect(port, mux.get_input_port(i))
+        builder.Connect(mux.get_output_port(), plant.get_applied_spatial_force_input_port())
+
+    if meshcat is not None:
+        _add_visualization(builder, scene_graph, plant, meshcat, scenario)
+    diagram = builder.Build()
+
+    simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    plant_context = plant.GetMyMutableContextFromRoot(context)
+    if base_command:
+        diagram.GetInputPort("twist").FixValue(context, np.zeros(3))
+    sampler = None
+    if clip is not None and scenario.initial.reference_time >= 0:
+        sampler = systems.get("reference") or _reference_source(scenario, emb, clip, fixed)
+    _set_initial_state(plant, plant_context, model, emb, scenario.initial.drop_height, sampler, fixed)
+    for obj in scenario.objects:
+        if not obj.fixed and not obj.kind == "target_marker":
+            body = plant.GetBodyByName(obj.kind, objects[obj.instance_name])
+            plant.SetFreeBodyPose(plant_context, body, _object_pose(obj))
+    if cubes:
+        place_perturbation_cubes(plant, plant_context, cubes, scenario.perturbations)
+    simulator.Initialize()
+    return Simulation(diagram, plant, model, simulator, emb, meshcat, systems, objects, clip)
 
 
 def build_standing_simulation(
@@ -97,91 +317,115 @@ def build_standing_simulation(
     meshcat: Meshcat | None = None,
     base_command: bool = False,
     perturbations: list | None = None,
-) -> StandingSimulation:
-    """Drop an embodiment from `drop_height` with its PD holding the standing pose.
+) -> Simulation:
+    """Drop an embodiment from `drop_height` with its PD holding the standing
+    pose (optionally throwing `perturbations`, a list of `CubeLaunch`)."""
+    scenario = Scenario(
+        embodiment=embodiment.name,
+        hands=embodiment.hands,
+        plant=settings or PlantSettings(),
+        initial=InitialCondition(drop_height=drop_height),
+        perturbations=list(perturbations or []),
+    )
+    return build_simulation(scenario, meshcat, embodiment=embodiment, base_command=base_command)
 
-    With `base_command=True` (planar-base robots) a `PlanarBaseCommand`
-    feeds the desired state and its `twist` input is exported as `twist`.
-    `perturbations` (a list of `CubeLaunch`) throws cubes at the torso.
-    """
-    settings = settings or PlantSettings()
-    builder = DiagramBuilder()
-    plant, scene_graph = AddMultibodyPlant(settings.plant_config(), builder)
-    explicit = settings.controller == "explicit"
-    if settings.controller not in ("implicit", "explicit"):
-        raise ValueError(f"controller must be 'implicit' or 'explicit', not {settings.controller!r}")
-    if explicit and base_command:
-        raise ValueError("the planar base command drives the built-in PD; use the implicit controller")
-    model = embodiment.add_to_plant(plant, builtin_pd=not explicit)
-    add_ground(plant)
-    if not settings.self_collision:
-        disable_self_collision(plant, scene_graph, model)
-    cubes = []
-    if perturbations:
-        from hotu_drake.systems.perturbation import add_perturbation_cubes
 
-        cubes = add_perturbation_cubes(plant, perturbations)
-    plant.Finalize()
-    if perturbations:
-        from hotu_drake.systems.perturbation import Perturbation
+def _static_gain(gain: np.ndarray, offset: np.ndarray) -> AffineSystem:
+    """y = gain u + offset, stateless."""
+    inputs = gain.shape[1]
+    return AffineSystem(
+        A=np.zeros((0, 0)), B=np.zeros((0, inputs)), f0=np.zeros(0), C=np.zeros((gain.shape[0], 0)), D=gain, y0=offset
+    )
 
-        torso = plant.GetBodyByName(embodiment.key_bodies["torso"], model)
-        thrower = builder.AddNamedSystem(
-            "perturbation", Perturbation(plant, cubes, perturbations, torso, settings.time_step)
+
+def _load_policy(scenario: Scenario, emb: Embodiment):
+    if not scenario.policy.checkpoint:
+        return None
+    from hotu_drake.learning.checkpoint import CheckpointError, load_checkpoint
+    from hotu_drake.systems.policy import PolicySystem
+
+    path = scenario.resolve(scenario.policy.checkpoint)
+    try:
+        network, meta = load_checkpoint(path)
+    except CheckpointError as error:
+        raise UserError(str(error)) from None
+    if (meta.get("embodiment"), meta.get("hands")) != (emb.name, emb.hands):
+        raise UserError(
+            f"{path}: the policy drives {meta.get('embodiment')} hands={meta.get('hands')}, "
+            f"not {emb.name} hands={emb.hands}"
         )
-        builder.Connect(plant.get_body_poses_output_port(), thrower.get_input_port(0))
-        builder.Connect(thrower.get_output_port(0), plant.get_applied_spatial_force_input_port())
+    if network.config.action_size != len(emb.joint_names):
+        raise UserError(f"{path}: the policy has {network.config.action_size} actions, {emb.name} has its joints")
+    return PolicySystem(network, scenario.policy.control_rate)
 
-    order = actuated_joint_order(plant, model)
-    if order != embodiment.joint_names:
-        raise RuntimeError(f"{embodiment.name}: actuator order differs from the spec's joint order")
-    q_stand = embodiment.standing_pose
-    extras = {}
-    if explicit:
-        from pydrake.systems.primitives import ConstantVectorSource
 
-        from hotu_drake.systems.pd import SaturatedPdController
+def _is_task_object(obj) -> bool:
+    return obj.kind in ("box", "drill") and not obj.fixed
 
-        controller = builder.AddNamedSystem("pd", SaturatedPdController(plant, model, embodiment))
-        targets = builder.AddNamedSystem("standing_targets", ConstantVectorSource(q_stand))
-        builder.Connect(plant.get_state_output_port(model), controller.get_input_port(0))
-        builder.Connect(targets.get_output_port(), controller.get_input_port(1))
-        builder.Connect(controller.get_output_port(0), plant.get_actuation_input_port(model))
-        extras["controller"] = controller
-    if base_command:
-        from hotu_drake.systems import PlanarBaseCommand
 
-        base = tuple(order.index(n) for n in embodiment.base_joints)
-        if len(base) != 3:
-            raise ValueError(f"{embodiment.name} has no planar base to command")
-        command = builder.AddNamedSystem("base_command", PlanarBaseCommand(q_stand, base, settings.time_step))
-        builder.Connect(command.get_output_port(), plant.get_desired_state_input_port(model))
-        builder.ExportInput(command.get_input_port(), "twist")
-        extras["base_command"] = command
-    if meshcat is not None:
-        MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat)
-    diagram = builder.Build()
+def _object_pose(obj) -> RigidTransform:
+    return RigidTransform(RollPitchYaw(0.0, 0.0, obj.yaw), np.asarray(obj.position, dtype=float))
 
-    simulator = Simulator(diagram)
-    context = simulator.get_mutable_context()
-    plant_context = plant.GetMyMutableContextFromRoot(context)
-    if base_command:
-        diagram.get_input_port(0).FixValue(context, np.zeros(3))
-    elif not explicit:
-        plant.get_desired_state_input_port(model).FixValue(
-            plant_context, np.concatenate([q_stand, np.zeros_like(q_stand)])
-        )
+
+def _add_objects(plant: MultibodyPlant, scenario: Scenario) -> dict:
+    """Add the scenario's objects (and a marker at each target) before Finalize."""
+    objects = {}
+    for obj in scenario.objects:
+        weld = _object_pose(obj) if obj.fixed or obj.kind == "target_marker" else None
+        objects[obj.instance_name] = add_object(plant, obj.kind, obj.instance_name, weld=weld)
+        if obj.target:
+            marker = f"{obj.instance_name}_target"
+            objects[marker] = add_object(
+                plant, "target_marker", marker, weld=RigidTransform(np.asarray(obj.target, dtype=float))
+            )
+    return objects
+
+
+def _reference_source(scenario: Scenario, emb: Embodiment, clip: MotionClip, fixed: bool):
+    start = max(scenario.initial.reference_time, 0.0)
+    return ReferenceMotionSource(clip, scenario.reference.loop, emb.floating_base and not fixed, start_time=start)
+
+
+def _set_initial_state(plant, plant_context, model, emb, drop_height, reference, fixed) -> None:
+    """The standing pose dropped from `drop_height`, or (given a `reference`
+    source) the reference state at time 0."""
     positions = plant.GetPositions(plant_context)
-    for name, q in zip(order, q_stand):
-        positions[plant.GetJointByName(name, model).position_start()] = q
+    velocities = plant.GetVelocities(plant_context)
+    from_clip = reference is not None
+    if from_clip:
+        q, v = reference.joints_at(0.0)
+    else:
+        q, v = emb.standing_pose, np.zeros(len(emb.joint_names))
+    for name, qi, vi in zip(emb.joint_names, q, v):
+        joint = plant.GetJointByName(name, model)
+        positions[joint.position_start()] = qi
+        velocities[joint.velocity_start()] = vi
     plant.SetPositions(plant_context, positions)
-    if embodiment.floating_base:
-        root = plant.GetBodyByName(embodiment.spec.root.name, model)
-        height = embodiment.standing_root_height + drop_height
+    plant.SetVelocities(plant_context, velocities)
+    if not emb.floating_base or fixed:
+        return
+    root = plant.GetBodyByName(emb.spec.root.name, model)
+    if from_clip:
+        quaternion, position, omega, linear = reference.root_at(0.0)
+        plant.SetFreeBodyPose(plant_context, root, RigidTransform(Quaternion(quaternion), position))
+        plant.SetFreeBodySpatialVelocity(plant_context, root, SpatialVelocity(omega, linear))
+    else:
+        height = emb.standing_root_height + drop_height
         plant.SetFreeBodyPose(plant_context, root, RigidTransform([0.0, 0.0, height]))
-    if perturbations:
-        from hotu_drake.systems.perturbation import place_perturbation_cubes
 
-        place_perturbation_cubes(plant, plant_context, cubes, perturbations)
-    simulator.Initialize()
-    return StandingSimulation(diagram, plant, model, simulator, embodiment, meshcat, extras)
+
+def _add_visualization(builder, scene_graph, plant, meshcat: Meshcat, scenario: Scenario) -> None:
+    settings = scenario.visualization
+    params = MeshcatVisualizerParams(publish_period=settings.publish_period)
+    MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, params)
+    if settings.collision_geometry:
+        collision = MeshcatVisualizerParams(
+            publish_period=settings.publish_period, role=Role.kProximity, prefix="collision", visible_by_default=False
+        )
+        MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, collision)
+    if settings.contact_forces:
+        from pydrake.multibody.meshcat import ContactVisualizer, ContactVisualizerParams
+
+        ContactVisualizer.AddToBuilder(
+            builder, plant, meshcat, ContactVisualizerParams(publish_period=settings.publish_period)
+        )

@@ -6,7 +6,9 @@ Builds the scenario's diagram, simulates it and prints `realtime_factor`,
 `fell` (a body other than a foot touched the floor, or the pelvis dropped
 below half its standing height), `min_pelvis_height`, `max_torque_ratio`
 (largest |torque| over its effort limit) and `checksum` (of the final state,
-to pin a scenario's outcome in regression tests).
+to pin a scenario's outcome in regression tests). A scenario with a
+reference motion also gets `tracking_rms` (rad, joint positions against the
+reference, sampled every 50 ms).
 """
 
 import hashlib
@@ -17,12 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
-from hotu_drake import embodiment
 from hotu_drake.cli import ArgumentParser, positive_float, run_cli
-from hotu_drake.diagrams import StandingSimulation, build_standing_simulation
+from hotu_drake.diagrams import Simulation, build_simulation
 from hotu_drake.io import write_text_atomic
 from hotu_drake.resources import scenario_path
-from hotu_drake.scenario import StandingScenario, load_standing_scenario
+from hotu_drake.scenario import Scenario, load_scenario
 
 CHUNK = 0.05  # s between checks of falls and torques
 
@@ -33,7 +34,7 @@ def state_checksum(values: np.ndarray) -> str:
     return hashlib.sha256(rounded.tobytes()).hexdigest()[:16]
 
 
-def _touching_floor(sim: StandingSimulation, allowed: set) -> bool:
+def _touching_floor(sim: Simulation, allowed: set) -> bool:
     plant = sim.plant
     context = plant.GetMyContextFromRoot(sim.simulator.get_context())
     contacts = plant.get_contact_results_output_port().Eval(context)
@@ -48,21 +49,19 @@ def _touching_floor(sim: StandingSimulation, allowed: set) -> bool:
     return False
 
 
-def run(scenario: StandingScenario, duration: float | None = None, meshcat=None) -> dict:
+def run(scenario: Scenario, duration: float | None = None, meshcat=None) -> dict:
     """Simulate a scenario; the figures `simulate` prints."""
-    emb = embodiment.load(scenario.embodiment, scenario.hands)
-    sim = build_standing_simulation(
-        emb, scenario.plant, scenario.drop_height, meshcat=meshcat, perturbations=scenario.perturbations
-    )
-    plant, context = sim.plant, sim.plant.GetMyContextFromRoot(sim.simulator.get_context())
+    sim = build_simulation(scenario, meshcat=meshcat)
+    emb, plant, context = sim.embodiment, sim.plant, sim.plant_context()
     feet = {
         plant.GetBodyByName(emb.key_bodies[r], sim.model).index()
         for r in ("left_foot", "right_foot")
         if r in emb.key_bodies
     }
+    floating = emb.floating_base and not scenario.fixed_base
     nominal = emb.standing_pelvis_height
     end = duration if duration is not None else scenario.duration
-    fell, lowest, torque_ratio, wall = False, np.inf, 0.0, 0.0
+    fell, lowest, torque_ratio, wall, errors = False, np.inf, 0.0, 0.0, []
     if meshcat is not None:
         meshcat.StartRecording(set_visualizations_while_recording=False)
     t = 0.0
@@ -73,22 +72,28 @@ def run(scenario: StandingScenario, duration: float | None = None, meshcat=None)
         wall += time.perf_counter() - start
         torques = plant.get_net_actuation_output_port(sim.model).Eval(context)
         torque_ratio = max(torque_ratio, float(np.max(np.abs(torques) / emb.effort_limits)))
-        if emb.floating_base:
+        if floating:
             height = sim.pelvis_height()
             lowest = min(lowest, height)
             fell = fell or height < 0.5 * nominal or _touching_floor(sim, feet)
+        if sim.reference is not None:
+            reference = sim.output("reference_joint_positions")
+            errors.append(np.fromiter(sim.joint_positions().values(), float) - reference)
     if meshcat is not None:
         meshcat.StopRecording()
         meshcat.PublishRecording()
-    return {
+    figures = {
         "scenario": scenario.embodiment,
         "duration": end,
         "realtime_factor": round(end / wall, 2) if wall > 0 else None,
         "fell": bool(fell),
-        "min_pelvis_height": round(float(lowest), 4) if emb.floating_base else None,
+        "min_pelvis_height": round(float(lowest), 4) if floating else None,
         "max_torque_ratio": round(torque_ratio, 4),
         "checksum": state_checksum(plant.GetPositionsAndVelocities(context)),
     }
+    if errors:
+        figures["tracking_rms"] = round(float(np.sqrt(np.mean(np.square(errors)))), 4)
+    return figures
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -101,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
     path = Path(args.scenario)
     if not path.exists() and not path.suffix:
         path = scenario_path(args.scenario)
-    scenario = load_standing_scenario(path)
+    scenario = load_scenario(path)
     meshcat = None
     if args.html:
         from pydrake.geometry import StartMeshcat

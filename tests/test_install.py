@@ -9,10 +9,10 @@ from tests.conftest import REPO
 
 CHECK = """
 import hotu_drake, hotu_drake.resources as r
-from hotu_drake.scenario import load_standing_scenario
+from hotu_drake.scenario import load_scenario
 assert r.models_dir().is_relative_to(r.Path(hotu_drake.__file__).parent), r.models_dir()
 assert r.model_path("h1", "none", "urdf").is_file()
-print(load_standing_scenario(r.scenario_path("stand_h1")).embodiment, hotu_drake.__file__)
+print(load_scenario(r.scenario_path("stand_h1")).embodiment, hotu_drake.__file__)
 """
 
 

@@ -20,7 +20,7 @@ def _scene():
     plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("pelvis", model), RigidTransform([0, 0, 1.0]))
     box = add_object(plant, "box")
     plant.Finalize()
-    graph = builder.AddSystem(InteractionGraphSystem(plant, model, udh, {"box": box}))
+    graph = builder.AddSystem(InteractionGraphSystem(plant, model, udh, {"box": plant.GetBodyByName("box", box)}))
     builder.Connect(plant.get_body_poses_output_port(), graph.get_input_port(0))
     builder.Connect(plant.get_contact_results_output_port(), graph.get_input_port(1))
     builder.ExportInput(graph.get_input_port(2), "object_targets")

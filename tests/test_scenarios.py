@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from hotu_drake.resources import systems_dir
-from hotu_drake.scenario import load_standing_scenario
+from hotu_drake.scenario import load_scenario
 from hotu_drake.simulate import run
 
 CHECKSUMS = Path(__file__).parent / "data" / "scenario_checksums.json"
@@ -21,7 +21,7 @@ SHORT = 0.5  # s
 
 @pytest.mark.parametrize("name", SCENARIOS)
 def test_scenario_runs_within_torque_limits_and_reproducibly(name):
-    scenario = load_standing_scenario(systems_dir() / f"{name}.yaml")
+    scenario = load_scenario(systems_dir() / f"{name}.yaml")
     figures = run(scenario, SHORT)
     assert figures["max_torque_ratio"] <= 1.0 + 1e-9
     assert not figures["fell"]
@@ -32,7 +32,7 @@ def test_scenario_runs_within_torque_limits_and_reproducibly(name):
 
 def test_perturbation_scenarios_push_but_do_not_topple():
     for name in [n for n in SCENARIOS if n.startswith("perturb_")]:
-        scenario = load_standing_scenario(systems_dir() / f"{name}.yaml")
+        scenario = load_scenario(systems_dir() / f"{name}.yaml")
         figures = run(scenario)
         assert not figures["fell"], name
         assert figures["max_torque_ratio"] <= 1.0 + 1e-9
@@ -60,8 +60,6 @@ def test_simulate_cli_prints_json_and_rejects_bad_files(tmp_path):
 
 
 if __name__ == "__main__":
-    values = {
-        name: run(load_standing_scenario(systems_dir() / f"{name}.yaml"), SHORT)["checksum"] for name in SCENARIOS
-    }
+    values = {name: run(load_scenario(systems_dir() / f"{name}.yaml"), SHORT)["checksum"] for name in SCENARIOS}
     CHECKSUMS.write_text(json.dumps(values, indent=2, sort_keys=True) + "\n")
     print(f"wrote {CHECKSUMS}")

@@ -8,17 +8,17 @@ from pydrake.math import RollPitchYaw
 from hotu_drake import embodiment
 from hotu_drake.diagrams import PlantSettings, build_standing_simulation
 from hotu_drake.resources import scenario_path
-from hotu_drake.scenario import load_standing_scenario
+from hotu_drake.scenario import load_scenario
 
 LEGGED = ("udh", "naviai", "h1", "bruce", "walker")
 
 
 @pytest.mark.parametrize("name", LEGGED)
 def test_legged_robot_stands_after_a_drop(name):
-    scenario = load_standing_scenario(scenario_path(f"stand_{name}"))
-    assert scenario.embodiment == name and scenario.drop_height == pytest.approx(0.1)
+    scenario = load_scenario(scenario_path(f"stand_{name}"))
+    assert scenario.embodiment == name and scenario.initial.drop_height == pytest.approx(0.1)
     emb = embodiment.load(scenario.embodiment, scenario.hands)
-    sim = build_standing_simulation(emb, scenario.plant, scenario.drop_height)
+    sim = build_standing_simulation(emb, scenario.plant, scenario.initial.drop_height)
     start = sim.pelvis_height()
     assert start == pytest.approx(emb.standing_pelvis_height + 0.1, abs=1e-6)
     sim.simulator.AdvanceTo(scenario.duration)

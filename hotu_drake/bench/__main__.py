@@ -3,6 +3,7 @@
 python -m hotu_drake.bench standing [--robot NAME|all] [--hands full|none|both]
                                     [--seconds S] [--time-step DT] [--no-self-collision]
 python -m hotu_drake.bench retarget [--input FILE] [--hands full|none|both] [--seconds S]
+python -m hotu_drake.bench diagram  [--robot NAME|all] [--hands full|none|both] [--seconds S] [--markdown]
 """
 
 import json
@@ -45,6 +46,35 @@ def _retarget(args) -> int:
     return 0
 
 
+def _diagram(args, names) -> int:
+    import tempfile
+    from pathlib import Path
+
+    import torch
+
+    from hotu_drake.bench.diagram import diagram_costs, summary
+
+    pin_to_one_core()
+    torch.set_num_threads(1)
+    results = []
+    with tempfile.TemporaryDirectory() as workdir:
+        for name in names:
+            for hands in ("full", "none") if args.hands == "both" else (args.hands,):
+                row = diagram_costs(name, hands, args.seconds, Path(workdir))
+                print(json.dumps(row), file=sys.stderr, flush=True)
+                results.append(row)
+    report = {
+        "benchmark": "diagram",
+        "machine": machine(),
+        "settings": {"time_step": 0.005, "control_rate": 30.0, "seconds": args.seconds, "cores": 1},
+        "results": results,
+    }
+    print(json.dumps(report, indent=2))
+    if args.markdown:
+        print("\n".join(summary(results)), file=sys.stderr)
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = ArgumentParser(prog="python -m hotu_drake.bench", description="Benchmarks that print JSON.")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -60,6 +90,12 @@ def main(argv: list[str] | None = None) -> int:
     retarget.add_argument("--hands", choices=["full", "none", "both"], default="both")
     retarget.add_argument("--seconds", type=positive_float, help="use only the first S seconds")
     retarget.add_argument("--json", action="store_true", help="accepted for symmetry; output is always JSON")
+    diagram = sub.add_parser("diagram", help="real-time factors of the scenario diagrams and cost per added system")
+    diagram.add_argument("--robot", default="all", help="an embodiment name or 'all'")
+    diagram.add_argument("--hands", choices=["full", "none", "both"], default="both")
+    diagram.add_argument("--seconds", type=positive_float, default=3.0, help="simulated seconds per diagram")
+    diagram.add_argument("--markdown", action="store_true", help="also print a Markdown table on stderr")
+    diagram.add_argument("--json", action="store_true", help="accepted for symmetry; output is always JSON")
     args = parser.parse_args(argv)
     if args.command == "retarget":
         return _retarget(args)
@@ -67,8 +103,12 @@ def main(argv: list[str] | None = None) -> int:
     names = embodiment.EMBODIMENT_NAMES if args.robot == "all" else (args.robot,)
     if any(n not in embodiment.EMBODIMENT_NAMES for n in names):
         raise UserError(f"unknown robot '{args.robot}'; choose from {', '.join(embodiment.EMBODIMENT_NAMES)} or all")
-    if args.time_step > 0.05 or args.seconds > 3600:
-        raise UserError("--time-step must be at most 0.05 s and --seconds at most 3600")
+    if args.seconds > 3600:
+        raise UserError("--seconds must be at most 3600")
+    if args.command == "diagram":
+        return _diagram(args, names)
+    if args.time_step > 0.05:
+        raise UserError("--time-step must be at most 0.05 s")
     hands = ("full", "none") if args.hands == "both" else (args.hands,)
     settings = PlantSettings(time_step=args.time_step, self_collision=not args.no_self_collision)
     pin_to_one_core()

@@ -1,6 +1,7 @@
 """Human -> UDH -> robots, as the method does it."""
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 from hotu_drake import embodiment
 from hotu_drake.motion.clip import MotionClip
@@ -49,3 +50,16 @@ def to_robot(udh_clip: MotionClip, robot: str, hands: str = "full", options: Ret
     start = time.perf_counter()
     clip = Retargeter(target, set(landmarks), options).retarget_landmarks(landmarks, udh_clip.fps, udh_clip)
     return Stage(clip, time.perf_counter() - start)
+
+
+@lru_cache(maxsize=32)
+def library_clip(motion: str, robot: str, hands: str = "none") -> MotionClip:
+    """A motion of the generated library on `robot` (or the UDH): the
+    human demonstration retargeted through the UDH, cached per process
+    (treat the returned clip as read-only)."""
+    from hotu_drake.motion.library import generate
+
+    source = generate(motion)
+    if robot == "udh":
+        return to_udh(source, hands).clip
+    return to_robot(to_udh(source, "none").clip, robot, hands).clip

@@ -36,10 +36,11 @@ class InteractionGraphSystem(LeafSystem):
     each hand and object, d_og for each object, then e_ho as 0/1)."""
 
     def __init__(self, plant: MultibodyPlant, model, embodiment: Embodiment, objects: dict[str, object]):
+        """`objects` maps each object's name in the graph to its body."""
         super().__init__()
         self._plant = plant
         self._objects = list(objects)
-        self._object_body = {name: plant.GetBodyByName(name, m).index() for name, m in objects.items()}
+        self._object_body = {name: body.index() for name, body in objects.items()}
         # A hand node is the hand link and every finger link of that side.
         self._hand_body = {}
         self._hand_members: dict[str, set] = {}

@@ -35,6 +35,16 @@ def heading_rotation(rotation: np.ndarray) -> np.ndarray:
     return np.column_stack([x, [-x[1], x[0], 0.0], [0.0, 0.0, 1.0]])
 
 
+def key_body_roles(embodiment: Embodiment) -> list[str]:
+    """The hands and feet the observation tracks, in order."""
+    return [r for r in ("left_hand", "right_hand", "left_foot", "right_foot") if r in embodiment.key_bodies]
+
+
+def observation_size(embodiment: Embodiment) -> int:
+    """Length of the policy observation of `embodiment`."""
+    return ROOT_FEATURES + 2 * len(embodiment.joint_names) + 3 * len(key_body_roles(embodiment))
+
+
 class ObservationSystem(LeafSystem):
     """Input port `state` (the model's [q; v]); output ports `observation`
     and `amp_observation` (see the module docstring)."""
@@ -45,11 +55,10 @@ class ObservationSystem(LeafSystem):
         self._plant_context = plant.CreateDefaultContext()
         self._q, self._v = actuated_state_indices(plant, model, embodiment.joint_names)
         self._root = plant.GetBodyByName(embodiment.spec.root.name, model)
-        roles = [r for r in ("left_hand", "right_hand", "left_foot", "right_foot") if r in embodiment.key_bodies]
+        roles = key_body_roles(embodiment)
         self._key_roles = roles
         self._key_bodies = [plant.GetBodyByName(embodiment.key_bodies[r], model) for r in roles]
-        n = len(embodiment.joint_names)
-        self.observation_size = ROOT_FEATURES + 2 * n + 3 * len(roles)
+        self.observation_size = observation_size(embodiment)
         self.part_slices: dict[str, slice] = {"root": slice(0, ROOT_FEATURES)}
         self._part_columns: list[tuple[str, list[int], list[int]]] = []
         start = ROOT_FEATURES

@@ -9,12 +9,36 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import LeafSystem
 
+from hotu_drake.embodiment import Embodiment
 from hotu_drake.learning.checkpoint import load_checkpoint
-from hotu_drake.learning.policy import PolicyNetwork
+from hotu_drake.learning.policy import PolicyConfig, PolicyNetwork
+from hotu_drake.systems.observation import observation_size
 
 CONTROL_RATE = 30.0  # Hz
+
+
+LATENT_SIZE = 16  # per functional part
+
+
+def policy_for(embodiment: Embodiment, latent_size: int = LATENT_SIZE, seed: int = 0) -> PolicyNetwork:
+    """A freshly initialised policy shaped for `embodiment`: its observation,
+    one action per joint, one latent per functional part. Its output layer
+    starts small around the standing pose's action, so an untrained policy
+    holds the robot roughly upright (training starts here)."""
+    from hotu_drake.systems.pd import ActionScaling
+
+    torch.manual_seed(seed)
+    parts = {part: latent_size for part, joints in embodiment.parts.items() if joints}
+    config = PolicyConfig(observation_size(embodiment), len(embodiment.joint_names), parts)
+    network = PolicyNetwork(config)
+    standing = ActionScaling.for_embodiment(embodiment).to_action(embodiment.standing_pose)
+    output = network.body[-1]
+    with torch.no_grad():
+        output.weight.mul_(0.01)
+        output.bias.copy_(torch.atanh(torch.as_tensor(np.clip(standing, -0.99, 0.99), dtype=torch.float32)))
+    return network
 
 
 class PolicySystem(LeafSystem):
@@ -28,7 +52,8 @@ class PolicySystem(LeafSystem):
         }
         self._action = self.DeclareDiscreteState(config.action_size)
         self.DeclarePeriodicDiscreteUpdateEvent(1.0 / control_rate, 0.0, self._Act)
-        self.DeclareVectorOutputPort("action", config.action_size, self._CalcAction)
+        # Served from the discrete state by Drake itself: no Python call per plant step.
+        self.DeclareStateOutputPort("action", self._action)
 
     @staticmethod
     def from_checkpoint(path: str | Path, control_rate: float = CONTROL_RATE) -> "PolicySystem":
@@ -43,6 +68,3 @@ class PolicySystem(LeafSystem):
         with torch.no_grad():
             action = self._network(observation, latents).numpy().astype(np.float64)
         discrete_state.set_value(self._action, action)
-
-    def _CalcAction(self, context, output: BasicVector) -> None:
-        output.SetFromVector(context.get_discrete_state(self._action).get_value())

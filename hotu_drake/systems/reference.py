@@ -19,9 +19,10 @@ class ReferenceMotionSource(LeafSystem):
     MultibodyPlant model orders them; joints only for a fixed base) and
     `key_body_positions` (3k)."""
 
-    def __init__(self, clip: MotionClip, loop: bool = True, floating_base: bool = True):
+    def __init__(self, clip: MotionClip, loop: bool = True, floating_base: bool = True, start_time: float = 0.0):
         super().__init__()
         self._clip, self._loop, self._floating = clip, loop, floating_base
+        self._start = start_time  # clip time at simulation time 0
         n, k = len(clip.joint_names), len(clip.key_body_names)
         state_size = 2 * n + (13 if floating_base else 0)
         self.DeclareVectorOutputPort("joint_positions", n, self._CalcJointPositions)
@@ -32,7 +33,7 @@ class ReferenceMotionSource(LeafSystem):
     def frame_at(self, time: float) -> tuple[int, int, float]:
         """The two frames around `time` and the weight of the second."""
         clip = self._clip
-        position = time * clip.fps
+        position = (time + self._start) * clip.fps
         last = clip.num_frames - 1
         if self._loop and last > 0:
             position %= last
@@ -54,17 +55,27 @@ class ReferenceMotionSource(LeafSystem):
     def _CalcKeyBodies(self, context, output: BasicVector) -> None:
         output.SetFromVector(self._lerp(self._clip.key_body_positions, context.get_time()).ravel())
 
-    def _CalcState(self, context, output: BasicVector) -> None:
-        t, clip = context.get_time(), self._clip
-        q, v = self._lerp(clip.joint_positions, t), self._lerp(clip.joint_velocities, t)
-        if not self._floating:
-            output.SetFromVector(np.concatenate([q, v]))
-            return
-        a, b, w = self.frame_at(t)
+    def root_at(self, time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Root quaternion (w x y z), position, angular and linear velocity (world) at `time`."""
+        clip = self._clip
+        a, b, w = self.frame_at(time)
         qa, qb = clip.root_quaternion[a], clip.root_quaternion[b]
         quaternion = (1.0 - w) * qa + w * (qb if np.dot(qa, qb) >= 0 else -qb)
         quaternion /= np.linalg.norm(quaternion)
-        root = self._lerp(clip.root_position, t)
-        omega = self._lerp(clip.root_angular_velocity, t)
-        linear = self._lerp(clip.root_linear_velocity, t)
+        position = self._lerp(clip.root_position, time)
+        omega = self._lerp(clip.root_angular_velocity, time)
+        linear = self._lerp(clip.root_linear_velocity, time)
+        return quaternion, position, omega, linear
+
+    def joints_at(self, time: float) -> tuple[np.ndarray, np.ndarray]:
+        """Joint positions and velocities at `time` (the clip's joint order)."""
+        return self._lerp(self._clip.joint_positions, time), self._lerp(self._clip.joint_velocities, time)
+
+    def _CalcState(self, context, output: BasicVector) -> None:
+        t = context.get_time()
+        q, v = self.joints_at(t)
+        if not self._floating:
+            output.SetFromVector(np.concatenate([q, v]))
+            return
+        quaternion, root, omega, linear = self.root_at(t)
         output.SetFromVector(np.concatenate([quaternion, root, q, omega, linear, v]))

@@ -1,0 +1,59 @@
+"""ObjectHolder: keeps free task objects floating until the robot touches them.
+
+The method's box task starts with the box in mid-air in front of the
+character. A held object gets a force that cancels its weight; the first
+time any body of the robot touches it, it is released (latched in discrete
+state) and falls or is carried like any free body.
+"""
+
+import numpy as np
+from pydrake.common.value import Value
+from pydrake.multibody.math import SpatialForce
+from pydrake.multibody.plant import ContactResults, ExternallyAppliedSpatialForce, MultibodyPlant
+from pydrake.systems.framework import LeafSystem
+
+GRAVITY = 9.81
+
+
+class ObjectHolder(LeafSystem):
+    """Input port `contact_results` (the plant's); output port
+    `spatial_forces` (to the plant's applied spatial force input) and
+    `released` (1 per object once it has been touched)."""
+
+    def __init__(self, plant: MultibodyPlant, robot_model, bodies: list, time_step: float):
+        super().__init__()
+        self._bodies = [b.index() for b in bodies]
+        self._weights = [b.default_mass() * GRAVITY for b in bodies]
+        self._centres = [np.asarray(b.default_com()) for b in bodies]
+        self._robot = set(plant.GetBodyIndices(robot_model))
+        self.DeclareAbstractInputPort("contact_results", Value(ContactResults()))
+        self._released = self.DeclareDiscreteState(len(bodies))
+        self.DeclarePeriodicDiscreteUpdateEvent(time_step, 0.0, self._Update)
+        self.DeclareAbstractOutputPort(
+            "spatial_forces", lambda: Value[list[ExternallyAppliedSpatialForce]]([]), self._CalcForces
+        )
+        self.DeclareStateOutputPort("released", self._released)
+
+    def _Update(self, context, discrete_state) -> None:
+        released = context.get_discrete_state(self._released).get_value().copy()
+        contacts = self.get_input_port(0).Eval(context)
+        for i in range(contacts.num_point_pair_contacts()):
+            info = contacts.point_pair_contact_info(i)
+            pair = (info.bodyA_index(), info.bodyB_index())
+            for k, body in enumerate(self._bodies):
+                if body in pair and (pair[0] in self._robot or pair[1] in self._robot):
+                    released[k] = 1.0
+        discrete_state.set_value(self._released, released)
+
+    def _CalcForces(self, context, output) -> None:
+        released = context.get_discrete_state(self._released).get_value()
+        forces = []
+        for body, weight, centre, done in zip(self._bodies, self._weights, self._centres, released):
+            if done:
+                continue
+            applied = ExternallyAppliedSpatialForce()
+            applied.body_index = body
+            applied.p_BoBq_B = centre  # at the centre of mass: no torque
+            applied.F_Bq_W = SpatialForce(np.zeros(3), np.array([0.0, 0.0, weight]))
+            forces.append(applied)
+        output.set_value(forces)

@@ -1,0 +1,153 @@
+"""What a scenario can put in the diagram: reference tracking and reference
+state initialisation, a policy, task objects held in the air, the
+interaction graph, and clear errors for bad references and checkpoints."""
+
+import numpy as np
+import pytest
+import torch
+
+from hotu_drake import embodiment
+from hotu_drake.cli import UserError
+from hotu_drake.diagrams import build_simulation
+from hotu_drake.learning.checkpoint import save_checkpoint
+from hotu_drake.resources import scenario_path
+from hotu_drake.retarget.pipeline import library_clip
+from hotu_drake.scenario import InitialCondition, PolicySettings, ReferenceMotion, Scenario, SceneObject, load_scenario
+from hotu_drake.systems.pd import ActionScaling
+from hotu_drake.systems.policy import policy_for
+
+
+def test_reference_state_initialisation_starts_on_the_clip():
+    clip = library_clip("walk", "h1", "none")
+    t0 = 1.0
+    scenario = Scenario(
+        embodiment="h1",
+        initial=InitialCondition(reference_time=t0),
+        reference=ReferenceMotion(motion="walk"),
+    )
+    sim = build_simulation(scenario)
+    frame = int(round(t0 * clip.fps))
+    q = np.fromiter(sim.joint_positions().values(), float)
+    np.testing.assert_allclose(q, clip.joint_positions[frame], atol=1e-9)
+    root = sim.plant.GetBodyByName(sim.embodiment.spec.root.name, sim.model)
+    pose = sim.plant.EvalBodyPoseInWorld(sim.plant_context(), root)
+    np.testing.assert_allclose(pose.translation(), clip.root_position[frame], atol=1e-9)
+    # The reference plays on from t0: at t = 0 it outputs the clip's frame at t0.
+    np.testing.assert_allclose(sim.output("reference_joint_positions"), clip.joint_positions[frame], atol=1e-9)
+
+
+def test_fixed_base_tracking_scenario_follows_the_walk():
+    from hotu_drake.simulate import run
+
+    figures = run(load_scenario(scenario_path("track_walk_udh")), duration=1.0)
+    assert figures["tracking_rms"] < 0.05  # rad
+    assert figures["max_torque_ratio"] <= 1.0 + 1e-9
+
+
+def test_policy_drives_the_pd_targets_through_the_action_scaling(tmp_path):
+    h1 = embodiment.load("h1", "none")
+    network = policy_for(h1, seed=3)
+    path = save_checkpoint(tmp_path / "policy.pt", network, "h1", "none")
+    policy = PolicySettings(str(path), control_rate=20.0)
+    scenario = Scenario(embodiment="h1", initial=InitialCondition(drop_height=0.0), policy=policy)
+    sim = build_simulation(scenario)
+    latents = {part: torch.zeros(1, size) for part, size in network.config.latent_sizes.items()}
+
+    def network_action() -> np.ndarray:
+        with torch.no_grad():
+            observation = torch.as_tensor(sim.output("observation"), dtype=torch.float32)[None]
+            return network(observation, latents)[0].numpy()
+
+    # The policy updates at 0.1 s together with a plant step; it sees the
+    # state before or after that step (Drake 1.51: after), never another.
+    sim.simulator.AdvanceTo(0.1)
+    before = network_action()
+    sim.simulator.AdvanceTo(0.102)
+    action, after = sim.output("action"), network_action()
+    assert np.allclose(action, after, atol=1e-6) or np.allclose(action, before, atol=1e-6)
+    sim.simulator.AdvanceTo(0.149)  # held until the next update
+    np.testing.assert_array_equal(sim.output("action"), action)
+    targets = sim.diagram.GetSubsystemByName("action_to_targets")
+    desired = targets.get_output_port().Eval(targets.GetMyContextFromRoot(sim.simulator.get_context()))
+    n = len(h1.joint_names)
+    np.testing.assert_allclose(desired[:n], ActionScaling.for_embodiment(h1).to_targets(action), atol=1e-12)
+    np.testing.assert_array_equal(desired[n:], np.zeros(n))
+
+
+def test_a_checkpoint_for_another_robot_is_refused(tmp_path):
+    path = save_checkpoint(tmp_path / "udh.pt", policy_for(embodiment.load("udh", "none")), "udh", "none")
+    with pytest.raises(UserError, match="udh.pt.*drives udh"):
+        build_simulation(Scenario(embodiment="h1", policy=PolicySettings(str(path))))
+
+
+def test_a_reference_that_is_not_a_motion_or_clip_is_refused(tmp_path):
+    with pytest.raises(UserError, match="moonwalk"):
+        build_simulation(Scenario(embodiment="h1", reference=ReferenceMotion(motion=str(tmp_path / "moonwalk"))))
+    clip_path = library_clip("squat", "udh", "none").save(tmp_path / "udh_squat.npz")
+    with pytest.raises(UserError, match="for 'udh', not h1"):
+        build_simulation(Scenario(embodiment="h1", reference=ReferenceMotion(motion=str(clip_path))))
+
+
+def _hand_position(name: str, hands: str, side: str = "right") -> np.ndarray:
+    sim = build_simulation(Scenario(embodiment=name, hands=hands, initial=InitialCondition(drop_height=0.0)))
+    hand = sim.plant.GetBodyByName(sim.embodiment.key_bodies[f"{side}_hand"], sim.model)
+    return sim.plant.EvalBodyPoseInWorld(sim.plant_context(), hand).translation()
+
+
+def test_held_box_floats_until_the_robot_touches_it_then_falls():
+    hand = _hand_position("udh", "none")
+    touching = (hand + [0.0, 0.0, -0.17]).tolist()  # top face just inside the hand
+    away = [1.0, -1.0, 1.0]
+    scenario = Scenario(
+        embodiment="udh",
+        initial=InitialCondition(drop_height=0.0),
+        objects=[
+            SceneObject(kind="box", name="touched", position=touching, held=True),
+            SceneObject(kind="box", name="untouched", position=away, held=True, target=[2.0, 0.0, 1.0]),
+        ],
+    )
+    sim = build_simulation(scenario)
+    sim.simulator.AdvanceTo(1.0)
+    context = sim.plant_context()
+
+    def height(name):
+        body = sim.plant.GetBodyByName("box", sim.objects[name])
+        return sim.plant.EvalBodyPoseInWorld(context, body).translation()[2]
+
+    holder = sim.systems["object_holder"]
+    released = holder.GetOutputPort("released").Eval(holder.GetMyContextFromRoot(sim.simulator.get_context()))
+    np.testing.assert_array_equal(released, [1.0, 0.0])
+    assert height("untouched") == pytest.approx(away[2], abs=1e-3)
+    assert height("touched") < touching[2] - 0.3  # fell toward the floor
+    # The interaction graph sees both boxes; the untouched one's d_og is target - position.
+    s_i = sim.output("interaction")
+    d_og = s_i[3 * 2 * 2 : 3 * 2 * 2 + 6].reshape(2, 3)
+    np.testing.assert_allclose(d_og[1], np.array([2.0, 0.0, 1.0]) - np.array(away), atol=1e-3)
+
+
+def test_box_scenario_holds_its_box_and_reports_the_interaction():
+    scenario = load_scenario(scenario_path("box_udh"))
+    sim = build_simulation(scenario)
+    sim.simulator.AdvanceTo(0.5)
+    box = scenario.objects[0]
+    body = sim.plant.GetBodyByName("box", sim.objects["box"])
+    position = sim.plant.EvalBodyPoseInWorld(sim.plant_context(), body).translation()
+    np.testing.assert_allclose(position, box.position, atol=1e-3)
+    s_i = sim.output("interaction")
+    assert s_i.shape == (3 * 2 + 3 + 2,)
+    np.testing.assert_allclose(s_i[6:9], np.array(box.target) - position, atol=1e-9)
+    np.testing.assert_array_equal(s_i[9:], [0.0, 0.0])  # no hand touches it
+    assert sim.output("amp_observation").size > 0
+
+
+def test_bad_scenario_fields_name_the_file(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("embodiment: udh\nobjects:\n  - kind: piano\n")
+    with pytest.raises(UserError, match=f"{bad}.*unknown object kind 'piano'"):
+        load_scenario(bad)
+    bad.write_text("embodiment: udh\npolicy:\n  checkpoint: missing.pt\n")
+    with pytest.raises(UserError, match="checkpoint missing.pt not found"):
+        load_scenario(bad)
+    bad.write_text("embodiment: udh\ninitial:\n  reference_time: 0.5\n")
+    with pytest.raises(UserError, match="needs a reference motion"):
+        load_scenario(bad)
