@@ -276,7 +276,9 @@ def build_simulation(
     held = [o for o in scenario.objects if o.held]
     if held:
         bodies = [plant.GetBodyByName(o.kind, objects[o.instance_name]) for o in held]
-        holder = systems["object_holder"] = add("object_holder", ObjectHolder(plant, model, bodies, settings.time_step))
+        holder = systems["object_holder"] = add(
+            "object_holder", ObjectHolder(plant, model, bodies, 1.0 / scenario.policy.control_rate)
+        )
         builder.Connect(plant.get_contact_results_output_port(), holder.GetInputPort("contact_results"))
         force_sources.append(holder.GetOutputPort("spatial_forces"))
     if len(force_sources) == 1:

@@ -20,7 +20,7 @@ class ObjectHolder(LeafSystem):
     `spatial_forces` (to the plant's applied spatial force input) and
     `released` (1 per object once it has been touched)."""
 
-    def __init__(self, plant: MultibodyPlant, robot_model, bodies: list, time_step: float):
+    def __init__(self, plant: MultibodyPlant, robot_model, bodies: list, check_period: float = 1.0 / 30.0):
         super().__init__()
         self._bodies = [b.index() for b in bodies]
         self._weights = [b.default_mass() * GRAVITY for b in bodies]
@@ -28,14 +28,19 @@ class ObjectHolder(LeafSystem):
         self._robot = set(plant.GetBodyIndices(robot_model))
         self.DeclareAbstractInputPort("contact_results", Value(ContactResults()))
         self._released = self.DeclareDiscreteState(len(bodies))
-        self.DeclarePeriodicDiscreteUpdateEvent(time_step, 0.0, self._Update)
+        self.DeclarePeriodicDiscreteUpdateEvent(check_period, 0.0, self._Update)
         self.DeclareAbstractOutputPort(
-            "spatial_forces", lambda: Value[list[ExternallyAppliedSpatialForce]]([]), self._CalcForces
+            "spatial_forces",
+            lambda: Value[list[ExternallyAppliedSpatialForce]]([]),
+            self._CalcForces,
+            prerequisites_of_calc={self.xd_ticket()},
         )
         self.DeclareStateOutputPort("released", self._released)
 
     def _Update(self, context, discrete_state) -> None:
         released = context.get_discrete_state(self._released).get_value().copy()
+        if released.all():
+            return
         contacts = self.get_input_port(0).Eval(context)
         for i in range(contacts.num_point_pair_contacts()):
             info = contacts.point_pair_contact_info(i)

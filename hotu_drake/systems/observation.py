@@ -53,6 +53,7 @@ class ObservationSystem(LeafSystem):
         super().__init__()
         self._plant, self._model, self._embodiment = plant, model, embodiment
         self._plant_context = plant.CreateDefaultContext()
+        self._memo = None  # (state, features) of the last state seen
         self._q, self._v = actuated_state_indices(plant, model, embodiment.joint_names)
         self._root = plant.GetBodyByName(embodiment.spec.root.name, model)
         roles = key_body_roles(embodiment)
@@ -78,8 +79,16 @@ class ObservationSystem(LeafSystem):
         self.DeclareVectorOutputPort("amp_observation", self.amp_size, self._CalcAmpObservation)
 
     def _features(self, context):
-        """Root features, joint positions and velocities, key bodies (heading frame)."""
+        """Root features, joint positions and velocities, key bodies (heading
+        frame); computed once per state, as both outputs are usually read."""
         state = self.get_input_port(0).Eval(context)
+        if self._memo is not None and np.array_equal(self._memo[0], state):
+            return self._memo[1]
+        features = self._compute_features(state)
+        self._memo = (state.copy(), features)
+        return features
+
+    def _compute_features(self, state: np.ndarray):
         plant, model = self._plant, self._model
         plant.SetPositionsAndVelocities(self._plant_context, model, state)
         pose = plant.EvalBodyPoseInWorld(self._plant_context, self._root)
