@@ -109,3 +109,21 @@ def test_generate_writes_every_model_and_check_passes(tmp_path):
 def test_help_explains():
     result = run("--help")
     assert result.returncode == 0 and "SDF, URDF or MJCF" in result.stdout
+
+
+def test_bench_diagram_reports_every_diagram_and_system_cost():
+    result = subprocess.run(
+        [sys.executable, "-m", "hotu_drake.bench", "diagram", "--robot", "bruce", "--hands", "none", "--seconds", "0.3"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert result.returncode == 0, result.stderr
+    import json
+
+    (row,) = json.loads(result.stdout)["results"]
+    assert row["standing_rtf"] > 0 and row["perturbation_rtf"] > 0 and row["all_systems_rtf"] > 0
+    costs = row["ms_per_control_step"]
+    assert set(costs) == {"advance", "observation", "amp_observation", "interaction", "policy_forward"}
+    assert all(value > 0 for value in costs.values())
+    assert not row["all_systems_fell"]
