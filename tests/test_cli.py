@@ -112,8 +112,9 @@ def test_help_explains():
 
 
 def test_bench_diagram_reports_every_diagram_and_system_cost():
+    command = ["diagram", "--robot", "bruce", "--hands", "none", "--seconds", "0.3"]
     result = subprocess.run(
-        [sys.executable, "-m", "hotu_drake.bench", "diagram", "--robot", "bruce", "--hands", "none", "--seconds", "0.3"],
+        [sys.executable, "-m", "hotu_drake.bench", *command],
         capture_output=True,
         text=True,
         timeout=300,
