@@ -147,12 +147,15 @@ def build_simulation(
     meshcat: Meshcat | None = None,
     embodiment: Embodiment | None = None,
     base_command: bool = False,
+    action_input: bool = False,
 ) -> Simulation:
     """Build the diagram a scenario describes and initialise its simulator.
 
     `embodiment` overrides the scenario's (e.g. a resized UDH). With
     `base_command=True` (planar-base robots) a `PlanarBaseCommand` feeds the
-    PD and its `twist` input is exported as `twist`.
+    PD and its `twist` input is exported as `twist`. With `action_input=True`
+    (and no policy in the scenario) the normalised PD targets come from an
+    exported `action` input port, the way an environment drives the diagram.
     """
     settings = scenario.plant
     if settings.controller not in ("implicit", "explicit"):
@@ -161,7 +164,9 @@ def build_simulation(
     emb = embodiment or embodiments.load(scenario.embodiment, scenario.hands)
     clip = reference_clip(scenario, emb)
     policy = _load_policy(scenario, emb)
-    if base_command and (explicit or clip is not None or policy is not None):
+    if action_input and policy is not None:
+        raise ValueError("a scenario with a policy has no action input")
+    if base_command and (explicit or clip is not None or policy is not None or action_input):
         raise ValueError("the planar base command drives the built-in PD on its own")
 
     builder = DiagramBuilder()
@@ -189,15 +194,9 @@ def build_simulation(
     add = builder.AddNamedSystem
 
     # The PD targets: positions (and, for the built-in PD, velocities).
-    if policy is not None:
+    if policy is not None or action_input:
         observation = systems["observation"] = add("observation", ObservationSystem(plant, model, emb))
         builder.Connect(plant.get_state_output_port(model), observation.get_input_port(0))
-        systems["policy"] = add("policy", policy)
-        builder.Connect(observation.GetOutputPort("observation"), policy.GetInputPort("observation"))
-        for port in range(1, policy.num_input_ports()):
-            latent = policy.get_input_port(port)
-            source = add(f"{latent.get_name()}_source", ConstantVectorSource(np.zeros(latent.size())))
-            builder.Connect(source.get_output_port(), latent)
         # a -> q* = offset + scale a (and v* = 0): a C++ system, no Python per step.
         scaling = ActionScaling.for_embodiment(emb)
         rows = n if explicit else 2 * n
@@ -206,8 +205,17 @@ def build_simulation(
         offset = np.zeros(rows)
         offset[:n] = scaling.offset
         targets = add("action_to_targets", _static_gain(gain, offset))
-        builder.Connect(policy.GetOutputPort("action"), targets.get_input_port())
         target_port = targets.get_output_port()
+        if policy is None:
+            builder.ExportInput(targets.get_input_port(), "action")
+        else:
+            systems["policy"] = add("policy", policy)
+            builder.Connect(observation.GetOutputPort("observation"), policy.GetInputPort("observation"))
+            for port in range(1, policy.num_input_ports()):
+                latent = policy.get_input_port(port)
+                source = add(f"{latent.get_name()}_source", ConstantVectorSource(np.zeros(latent.size())))
+                builder.Connect(source.get_output_port(), latent)
+            builder.Connect(policy.GetOutputPort("action"), targets.get_input_port())
     elif clip is not None:
         reference = systems["reference"] = add("reference", _reference_source(scenario, emb, clip, fixed))
         builder.ExportOutput(reference.GetOutputPort("joint_positions"), "reference_joint_positions")
@@ -258,7 +266,7 @@ def build_simulation(
             "interaction_graph", InteractionGraphSystem(plant, model, emb, graph_objects)
         )
         goals = [o.target or o.position for o in scenario.objects if o.instance_name in graph_objects]
-        targets = add("object_targets", ConstantVectorSource(np.ravel(goals).astype(float)))
+        targets = systems["object_targets"] = add("object_targets", ConstantVectorSource(np.ravel(goals).astype(float)))
         builder.Connect(plant.get_body_poses_output_port(), graph.GetInputPort("body_poses"))
         builder.Connect(plant.get_contact_results_output_port(), graph.GetInputPort("contact_results"))
         builder.Connect(targets.get_output_port(), graph.GetInputPort("object_targets"))

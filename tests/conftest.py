@@ -1,6 +1,7 @@
 """Shared fixtures and paths for the test suite."""
 
 import os
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -10,6 +11,9 @@ SHARED = REPO.parent / "shared"
 
 # One core per process keeps timings and contact solves comparable.
 os.environ.setdefault("OMP_NUM_THREADS", "1")
+# Retargeted reference clips are cached per test run, not in the user's home
+# (worker processes inherit this).
+os.environ.setdefault("HOTU_DRAKE_CACHE", tempfile.mkdtemp(prefix="hotu_drake_test_cache_"))
 
 
 @pytest.fixture

@@ -128,3 +128,30 @@ def test_bench_diagram_reports_every_diagram_and_system_cost():
     assert set(costs) == {"advance", "observation", "amp_observation", "interaction", "policy_forward"}
     assert all(value > 0 for value in costs.values())
     assert not row["all_systems_fell"]
+
+
+def test_bench_env_reports_throughput_split_memory_and_the_mujoco_ratio():
+    pytest.importorskip("mujoco")
+    command = ["env", "--robot", "bruce", "--envs", "1", "--seconds", "0.5", "--peer", "mujoco", "--json"]
+    result = subprocess.run(
+        [sys.executable, "-m", "hotu_drake.bench", *command], capture_output=True, text=True, timeout=300
+    )
+    assert result.returncode == 0, result.stderr
+    import json
+
+    report = json.loads(result.stdout)
+    assert report["env_steps_per_second"] > 0 and report["sim_seconds_per_wall_second"] > 0
+    split = report["ms_per_step"]
+    assert set(split) == {"physics", "observation", "amp_observation", "python_overhead", "total"}
+    assert split["physics"] + split["observation"] + split["amp_observation"] <= split["total"]
+    assert report["peer"]["env_steps_per_second"] > 0
+    expected = report["in_process"]["env_steps_per_second"] / report["peer"]["env_steps_per_second"]
+    assert report["drake_to_mujoco_ratio"] == pytest.approx(expected, rel=0.01)
+    assert report["peak_memory_mb"]["this_process"] > 0 and report["peak_memory_mb"]["largest_worker"] > 0
+
+
+def test_bench_env_rejects_bad_worker_counts():
+    result = subprocess.run(
+        [sys.executable, "-m", "hotu_drake.bench", "env", "--envs", "0"], capture_output=True, text=True, timeout=120
+    )
+    assert result.returncode == 2 and result.stderr.count("\n") == 1 and "--envs" in result.stderr

@@ -4,22 +4,17 @@ python -m hotu_drake.bench standing [--robot NAME|all] [--hands full|none|both]
                                     [--seconds S] [--time-step DT] [--no-self-collision]
 python -m hotu_drake.bench retarget [--input FILE] [--hands full|none|both] [--seconds S]
 python -m hotu_drake.bench diagram  [--robot NAME|all] [--hands full|none|both] [--seconds S] [--markdown]
+python -m hotu_drake.bench env      [--robot NAME] [--hands full|none] [--envs N] [--seconds S]
+                                    [--motions M ...] [--peer mujoco] [--json]
 """
 
 import json
-import os
 import sys
 
 from hotu_drake import embodiment
-from hotu_drake.bench.standing import machine, standing_realtime_factor
+from hotu_drake.bench.standing import machine, pin_to_one_core, standing_realtime_factor
 from hotu_drake.cli import ArgumentParser, UserError, positive_float, run_cli
 from hotu_drake.diagrams import PlantSettings
-
-
-def pin_to_one_core() -> None:
-    """Run on a single core so figures are per core."""
-    if hasattr(os, "sched_setaffinity"):
-        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
 
 
 def _retarget(args) -> int:
@@ -75,6 +70,41 @@ def _diagram(args, names) -> int:
     return 0
 
 
+def _env(args) -> int:
+    from hotu_drake.bench import env as bench_env
+    from hotu_drake.envs.motions import reference_clips
+
+    if args.envs < 1 or args.envs > 64:
+        raise UserError("--envs must be between 1 and 64")
+    emb = embodiment.load(args.robot, args.hands)
+    reference_clips(emb, args.motions)  # retarget (or load from the cache) once, before timing
+    report: dict = {"benchmark": "env", "machine": machine(), "robot": args.robot, "hands": args.hands}
+    report["settings"] = {"time_step": 0.005, "control_rate": 30.0, "seconds": args.seconds, "motions": args.motions}
+    report["vectorised"] = bench_env.vectorised(args.robot, args.hands, args.seconds, args.motions, args.envs)
+    pin_to_one_core()
+    report["in_process"] = bench_env.in_process(args.robot, args.hands, args.seconds, args.motions)
+    report["env_steps_per_second"] = report["vectorised"]["env_steps_per_second"]
+    report["sim_seconds_per_wall_second"] = report["vectorised"]["sim_seconds_per_wall_second"]
+    report["ms_per_step"] = report["in_process"]["ms_per_step"]
+    if args.peer == "mujoco":
+        try:
+            peer = bench_env.mujoco_peer(args.robot, args.hands, args.seconds)
+        except RuntimeError as error:
+            raise UserError(str(error)) from None
+        report["peer"] = peer
+        report["drake_to_mujoco_ratio"] = round(
+            report["in_process"]["env_steps_per_second"] / peer["env_steps_per_second"], 3
+        )
+    report["peak_memory_mb"] = bench_env.peak_memory_mb()
+    if args.json:
+        print(json.dumps(report, indent=2))
+    else:
+        for key in ("env_steps_per_second", "sim_seconds_per_wall_second", "ms_per_step", "drake_to_mujoco_ratio"):
+            if key in report:
+                print(f"{key:28s} {report[key]}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = ArgumentParser(prog="python -m hotu_drake.bench", description="Benchmarks that print JSON.")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -96,7 +126,17 @@ def main(argv: list[str] | None = None) -> int:
     diagram.add_argument("--seconds", type=positive_float, default=3.0, help="simulated seconds per diagram")
     diagram.add_argument("--markdown", action="store_true", help="also print a Markdown table on stderr")
     diagram.add_argument("--json", action="store_true", help="accepted for symmetry; output is always JSON")
+    env = sub.add_parser("env", help="Imitation-v0 steps per second, in process and in N workers; MuJoCo peer")
+    env.add_argument("--robot", default="h1", choices=embodiment.EMBODIMENT_NAMES)
+    env.add_argument("--hands", choices=["full", "none"], default="none")
+    env.add_argument("--envs", type=int, default=1, help="worker processes (default 1)")
+    env.add_argument("--seconds", type=positive_float, default=10.0, help="wall-clock seconds per measurement")
+    env.add_argument("--motions", nargs="+", default=["walk"], help="reference motions (default: walk)")
+    env.add_argument("--peer", choices=["mujoco"], help="also run the embodiment's MJCF under this engine")
+    env.add_argument("--json", action="store_true", help="print the full report as JSON")
     args = parser.parse_args(argv)
+    if args.command == "env":
+        return _env(args)
     if args.command == "retarget":
         return _retarget(args)
 

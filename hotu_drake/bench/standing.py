@@ -9,6 +9,14 @@ from hotu_drake import embodiment
 from hotu_drake.diagrams import PlantSettings, build_standing_simulation
 
 
+def pin_to_one_core() -> None:
+    """Run on a single core so figures are per core."""
+    import os
+
+    if hasattr(os, "sched_setaffinity"):
+        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+
+
 def machine() -> dict:
     """What the figures were measured on."""
     import os

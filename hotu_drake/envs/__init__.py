@@ -1,0 +1,28 @@
+"""Gymnasium environments over the scenario diagrams.
+
+Importing this package registers:
+
+- `hotu_drake/Imitation-v0` (`imitation.ImitationEnv`): imitate reference
+  motions with per-part AMP observations;
+- `hotu_drake/BoxCarry-v0`, `hotu_drake/DrillGrasp-v0` (`tasks`): the
+  method's loco-manipulation tasks with goal, s_I and task reward.
+
+Episodes are cut at 300 control steps (10 s) by gymnasium's TimeLimit.
+"""
+
+from gymnasium.envs.registration import register, registry
+
+from hotu_drake.envs.rollout import EnvSpec, RolloutBatch, RolloutCollector, make_vector_env
+
+ENV_IDS: dict[str, str] = {
+    "hotu_drake/Imitation-v0": "hotu_drake.envs.imitation:ImitationEnv",
+    "hotu_drake/BoxCarry-v0": "hotu_drake.envs.tasks:BoxCarryEnv",
+    "hotu_drake/DrillGrasp-v0": "hotu_drake.envs.tasks:DrillGraspEnv",
+}
+MAX_EPISODE_STEPS = 300
+
+for _id, _entry in ENV_IDS.items():
+    if _id not in registry:
+        register(id=_id, entry_point=_entry, max_episode_steps=MAX_EPISODE_STEPS, disable_env_checker=True)
+
+__all__ = ["ENV_IDS", "EnvSpec", "RolloutBatch", "RolloutCollector", "make_vector_env"]

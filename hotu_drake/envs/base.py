@@ -1,0 +1,259 @@
+"""DiagramEnv: a gymnasium environment over a scenario diagram.
+
+The environment builds one diagram with `diagrams.build_simulation(...,
+action_input=True)` and reuses it for every episode (a reset rewrites the
+context). One `step` holds the action (normalised PD targets) for one
+control period (1/30 s by default) while the simulator advances the plant
+and its PD, then reads the ObservationSystem's outputs.
+
+Every step's `info` carries `amp`: per functional part, the AMP
+observations of the last K frames (oldest first, shape (K, d_part)), for
+the per-part discriminators; a Drake failure during the step (the contact
+solver not converging) ends the episode as truncated with a logged warning.
+"""
+
+import logging
+import time
+from collections import deque
+from dataclasses import dataclass
+
+import gymnasium as gym
+import numpy as np
+from pydrake.common.eigen_geometry import Quaternion
+from pydrake.math import RigidTransform
+from pydrake.multibody.math import SpatialVelocity
+
+from hotu_drake import embodiment as embodiments
+from hotu_drake.diagrams import Simulation, build_simulation
+from hotu_drake.motion.clip import MotionClip
+from hotu_drake.scenario import InitialCondition, PlantSettings, Scenario, SceneObject
+from hotu_drake.systems.reference import ReferenceMotionSource
+
+log = logging.getLogger("hotu_drake.envs")
+
+FEET = ("left_foot", "right_foot")
+
+
+@dataclass
+class EnvTimings:
+    """Wall-clock seconds spent in each part of `step` since the last reset of the counters."""
+
+    steps: int = 0
+    total: float = 0.0
+    physics: float = 0.0
+    observation: float = 0.0
+    amp_observation: float = 0.0
+
+    def per_step_ms(self) -> dict[str, float]:
+        n = max(self.steps, 1)
+        python = self.total - self.physics - self.observation - self.amp_observation
+        parts = {"physics": self.physics, "observation": self.observation}
+        parts |= {"amp_observation": self.amp_observation, "python_overhead": python, "total": self.total}
+        return {k: round(1000 * v / n, 4) for k, v in parts.items()}
+
+
+class DiagramEnv(gym.Env):
+    """Shared machinery of the hotu_drake environments (not registered itself)."""
+
+    metadata = {"render_modes": []}
+
+    def __init__(
+        self,
+        robot: str = "h1",
+        hands: str = "none",
+        clips: list[MotionClip] | None = None,
+        objects: list[SceneObject] | None = None,
+        control_rate: float = 30.0,
+        time_step: float = 0.005,
+        amp_history: int = 10,
+        reference_init_probability: float = 0.8,
+        drop_height: float = 0.05,
+        termination_height: float = 0.5,
+        embodiment=None,
+    ):
+        if amp_history < 1 or control_rate <= 0 or time_step <= 0:
+            raise ValueError("amp_history must be >= 1, control_rate and time_step > 0")
+        if not 0.0 <= reference_init_probability <= 1.0:
+            raise ValueError("reference_init_probability must be in [0, 1]")
+        self.embodiment = embodiment or embodiments.load(robot, hands)
+        emb = self.embodiment
+        self.clips = list(clips or [])
+        self.control_period = 1.0 / control_rate
+        self.amp_history = amp_history
+        self.reference_init_probability = reference_init_probability if self.clips else 0.0
+        self.drop_height = drop_height
+        self.termination_height = termination_height * emb.standing_pelvis_height
+        scenario = Scenario(
+            embodiment=emb.name,
+            hands=emb.hands,
+            plant=PlantSettings(time_step=time_step),
+            initial=InitialCondition(drop_height=0.0),
+            objects=list(objects or []),
+        )
+        self.sim: Simulation = build_simulation(scenario, embodiment=emb, action_input=True)
+        sim = self.sim
+        self._context = sim.simulator.get_mutable_context()
+        self._plant_context = sim.plant.GetMyMutableContextFromRoot(self._context)
+        self._action_port = sim.diagram.GetInputPort("action")
+        self._observation_port = sim.diagram.GetOutputPort("observation")
+        self._amp_port = sim.diagram.GetOutputPort("amp_observation")
+        observer = sim.systems["observation"]
+        self.part_slices: dict[str, slice] = dict(observer.part_slices)
+        plant, model = sim.plant, sim.model
+        self._root = plant.GetBodyByName(emb.spec.root.name, model)
+        self._pelvis = plant.GetBodyByName(emb.key_bodies["pelvis"], model)
+        self._allowed_on_floor = {
+            plant.GetBodyByName(emb.key_bodies[r], model).index() for r in FEET if r in emb.key_bodies
+        }
+        self._robot_bodies = set(plant.GetBodyIndices(model))
+        self._world = plant.world_body().index()
+        self._joints = [plant.GetJointByName(n, model) for n in emb.joint_names]
+        self._samplers = [ReferenceMotionSource(c, loop=False, floating_base=emb.floating_base) for c in self.clips]
+        n = len(emb.joint_names)
+        self.action_space = gym.spaces.Box(-1.0, 1.0, (n,), np.float32)
+        self.observation_space = gym.spaces.Box(-np.inf, np.inf, (self._observation_size(),), np.float32)
+        self._history: deque = deque(maxlen=amp_history)
+        self.timings = EnvTimings()
+        self.init_kind = "default"
+
+    # -- what subclasses extend ------------------------------------------------
+
+    def _observation_size(self) -> int:
+        return self.sim.systems["observation"].observation_size
+
+    def _extra_observation(self) -> np.ndarray:
+        return np.zeros(0)
+
+    def _place_task(self) -> None:
+        """Put task objects at their episode's start (subclasses)."""
+
+    def _task_reward(self, info: dict) -> float:
+        return 0.0
+
+    # -- gymnasium API ---------------------------------------------------------
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        options = options or {}
+        context = self._context
+        self.sim.diagram.SetDefaultContext(context)
+        context.SetTime(0.0)
+        kind = options.get("init")
+        if kind is None:
+            kind = "reference" if self.np_random.random() < self.reference_init_probability else "default"
+        if kind == "reference" and not self.clips:
+            raise ValueError("reference initialisation needs reference clips")
+        if kind == "reference":
+            index = options.get("clip", int(self.np_random.integers(len(self.clips))))
+            clip = self.clips[index]
+            start = options.get("time", float(self.np_random.uniform(0.0, max(clip.duration - 0.1, 0.0))))
+            self._set_reference_state(self._samplers[index], start)
+        elif kind == "default":
+            self._set_default_state(float(self.np_random.uniform(0.0, self.drop_height)))
+        else:
+            raise ValueError(f"options['init'] must be 'reference' or 'default', not {kind!r}")
+        self.init_kind = kind
+        self._place_task()
+        self._action_port.FixValue(context, self._standing_action())
+        self.sim.simulator.Initialize()
+        amp = self._amp_port.Eval(context)
+        self._history.clear()
+        for _ in range(self.amp_history):
+            self._history.append(amp.copy())
+        return self._observe(), self._info(terminated=False)
+
+    def step(self, action):
+        start = time.perf_counter()
+        action = np.asarray(action, dtype=np.float64)
+        if action.shape != self.action_space.shape or not np.all(np.isfinite(action)):
+            raise ValueError(f"action must be {self.action_space.shape} finite numbers")
+        self._action_port.FixValue(self._context, np.clip(action, -1.0, 1.0))
+        target = self._context.get_time() + self.control_period
+        failed = None
+        tick = time.perf_counter()
+        try:
+            self._advance_to(target)
+        except RuntimeError as error:  # Drake reports solver failures this way
+            failed = str(error).splitlines()[0] if str(error) else type(error).__name__
+            log.warning("%s: simulation failed at t=%.3f s (%s); episode truncated", self.spec_id, target, failed)
+        self.timings.physics += time.perf_counter() - tick
+        tick = time.perf_counter()
+        observation = self._observe()
+        self.timings.observation += time.perf_counter() - tick
+        tick = time.perf_counter()
+        self._history.append(self._amp_port.Eval(self._context).copy())
+        self.timings.amp_observation += time.perf_counter() - tick
+        terminated = failed is None and self._fell()
+        info = self._info(terminated)
+        if failed is not None:
+            info["simulation_failure"] = failed
+        reward = self._task_reward(info)
+        self.timings.steps += 1
+        self.timings.total += time.perf_counter() - start
+        return observation, float(reward), bool(terminated), failed is not None, info
+
+    # -- internals -------------------------------------------------------------
+
+    @property
+    def spec_id(self) -> str:
+        return self.spec.id if self.spec is not None else type(self).__name__
+
+    def _advance_to(self, time_: float) -> None:
+        self.sim.simulator.AdvanceTo(time_)
+
+    def _standing_action(self) -> np.ndarray:
+        from hotu_drake.systems.pd import ActionScaling
+
+        return np.clip(ActionScaling.for_embodiment(self.embodiment).to_action(self.embodiment.standing_pose), -1, 1)
+
+    def _set_joints(self, q: np.ndarray, v: np.ndarray) -> None:
+        plant, context = self.sim.plant, self._plant_context
+        positions, velocities = plant.GetPositions(context), plant.GetVelocities(context)
+        for joint, qi, vi in zip(self._joints, q, v):
+            positions[joint.position_start()] = qi
+            velocities[joint.velocity_start()] = vi
+        plant.SetPositions(context, positions)
+        plant.SetVelocities(context, velocities)
+
+    def _set_default_state(self, drop: float) -> None:
+        emb = self.embodiment
+        self._set_joints(emb.standing_pose, np.zeros(len(emb.joint_names)))
+        if emb.floating_base:
+            pose = RigidTransform([0.0, 0.0, emb.standing_root_height + drop])
+            self.sim.plant.SetFreeBodyPose(self._plant_context, self._root, pose)
+
+    def _set_reference_state(self, sampler: ReferenceMotionSource, time_: float) -> None:
+        q, v = sampler.joints_at(time_)
+        self._set_joints(q, v)
+        if self.embodiment.floating_base:
+            quaternion, position, omega, linear = sampler.root_at(time_)
+            plant = self.sim.plant
+            plant.SetFreeBodyPose(self._plant_context, self._root, RigidTransform(Quaternion(quaternion), position))
+            plant.SetFreeBodySpatialVelocity(self._plant_context, self._root, SpatialVelocity(omega, linear))
+
+    def _observe(self) -> np.ndarray:
+        robot = self._observation_port.Eval(self._context)
+        return np.concatenate([robot, self._extra_observation()]).astype(np.float32)
+
+    def _info(self, terminated: bool) -> dict:
+        frames = np.asarray(self._history, dtype=np.float32)
+        amp = {part: frames[:, s] for part, s in self.part_slices.items()}
+        return {"amp": amp, "time": self._context.get_time(), "init": self.init_kind}
+
+    def pelvis_height(self) -> float:
+        return float(self.sim.plant.EvalBodyPoseInWorld(self._plant_context, self._pelvis).translation()[2])
+
+    def _fell(self) -> bool:
+        if not self.embodiment.floating_base:
+            return False
+        if self.pelvis_height() < self.termination_height:
+            return True
+        contacts = self.sim.plant.get_contact_results_output_port().Eval(self._plant_context)
+        world, robot, allowed = self._world, self._robot_bodies, self._allowed_on_floor
+        for i in range(contacts.num_point_pair_contacts()):
+            info = contacts.point_pair_contact_info(i)
+            a, b = info.bodyA_index(), info.bodyB_index()
+            other = b if a == world else a if b == world else None
+            if other is not None and other in robot and other not in allowed:
+                return True
+        return False

@@ -1,0 +1,73 @@
+"""The reference clips an environment imitates, on its embodiment.
+
+A motion is a name from the generated library (retargeted human -> UDH ->
+robot) or a path to a `.npz` clip of the embodiment. Retargeting a library
+motion takes seconds, so results are cached on disk, keyed by the source
+of the code that produces them (a change to the library or the retargeter
+makes a new key): `$HOTU_DRAKE_CACHE`, else `~/.cache/hotu_drake`.
+"""
+
+import hashlib
+import os
+from collections.abc import Iterable
+from functools import lru_cache
+from pathlib import Path
+
+from hotu_drake.cli import UserError
+from hotu_drake.embodiment import Embodiment
+from hotu_drake.motion.clip import ClipFormatError, MotionClip
+from hotu_drake.motion.library import MOTIONS
+
+_PACKAGE = Path(__file__).resolve().parent.parent
+
+
+def cache_dir() -> Path:
+    return Path(os.environ.get("HOTU_DRAKE_CACHE", Path.home() / ".cache" / "hotu_drake"))
+
+
+@lru_cache(maxsize=1)
+def _code_key() -> str:
+    """A digest of the sources that shape a retargeted library clip."""
+    digest = hashlib.sha256()
+    sources = [_PACKAGE / "motion", _PACKAGE / "retarget", _PACKAGE / "embodiment"]
+    for folder in sources:
+        for path in sorted(folder.rglob("*.py")):
+            digest.update(path.read_bytes())
+    return digest.hexdigest()[:12]
+
+
+def library_clip_cached(motion: str, embodiment: Embodiment) -> MotionClip:
+    """`motion` of the generated library on `embodiment`, from the disk cache if there."""
+    from hotu_drake.retarget.pipeline import library_clip
+
+    path = cache_dir() / "clips" / _code_key() / f"{embodiment.name}_{embodiment.hands}_{motion}.npz"
+    if path.is_file():
+        try:
+            return MotionClip.load(path)
+        except ClipFormatError:
+            pass  # a damaged cache entry: make it again
+    clip = library_clip(motion, embodiment.name, embodiment.hands)
+    try:
+        clip.save(path)  # atomic: parallel workers may race here harmlessly
+    except OSError:
+        pass  # a read-only home still works, just slower
+    return clip
+
+
+def reference_clips(embodiment: Embodiment, motions: Iterable[str] | None = None) -> list[MotionClip]:
+    """The clips for `motions` (default: the whole generated library)."""
+    clips = []
+    for motion in MOTIONS if motions is None else motions:
+        if motion in MOTIONS:
+            clip = library_clip_cached(motion, embodiment)
+        else:
+            path = Path(motion)
+            if path.suffix != ".npz" or not path.is_file():
+                raise UserError(f"{motion}: not a library motion ({', '.join(MOTIONS)}) nor a .npz clip")
+            clip = MotionClip.load(path)
+        if list(clip.joint_names) != list(embodiment.joint_names):
+            raise UserError(f"{motion}: a clip for '{clip.embodiment}', not {embodiment.name} hands={embodiment.hands}")
+        clips.append(clip)
+    if not clips:
+        raise UserError("motions: give at least one motion")
+    return clips

@@ -1,0 +1,163 @@
+"""The gymnasium environments: standard, deterministic, and doing what they say."""
+
+import logging
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import hotu_drake.envs  # noqa: F401  (registers the ids)
+from hotu_drake.cli import UserError
+from hotu_drake.envs.motions import reference_clips
+from hotu_drake.motion.library import MOTIONS
+from hotu_drake.systems.observation import ROOT_FEATURES
+
+WALK = ["walk"]
+
+
+@pytest.fixture(scope="module")
+def h1_env():
+    env = gym.make("hotu_drake/Imitation-v0", robot="h1", hands="none", motions=WALK, amp_history=4)
+    yield env
+    env.close()
+
+
+def _standing(env) -> np.ndarray:
+    return env.unwrapped._standing_action().astype(np.float32)
+
+
+def test_imitation_env_passes_the_gymnasium_checker(h1_env):
+    check_env(h1_env.unwrapped, skip_render_check=True)
+    assert h1_env.spec.max_episode_steps == 300
+
+
+def test_amp_history_per_part_shifts_one_frame_per_step(h1_env):
+    env = h1_env.unwrapped
+    _, info = h1_env.reset(seed=1, options={"init": "default"})
+    slices = env.part_slices
+    assert set(info["amp"]) == set(slices) and "hip" in slices and "root" in slices
+    for part, frames in info["amp"].items():
+        assert frames.shape == (4, slices[part].stop - slices[part].start)
+        np.testing.assert_array_equal(frames[0], frames[-1])  # filled with the first frame
+    previous = info["amp"]
+    for _ in range(3):
+        _, _, _, _, info = h1_env.step(_standing(h1_env))
+        for part in slices:
+            np.testing.assert_array_equal(info["amp"][part][:-1], previous[part][1:])
+        previous = info["amp"]
+    assert not np.array_equal(previous["hip"][-1], previous["hip"][0])  # it moved: the drop
+
+
+def test_reference_state_initialisation_starts_on_the_clip(h1_env):
+    env = h1_env.unwrapped
+    clip = env.clips[0]
+    observation, info = h1_env.reset(seed=0, options={"init": "reference", "clip": 0, "time": 1.0})
+    assert info["init"] == "reference"
+    n = len(env.embodiment.joint_names)
+    frame = int(round(1.0 * clip.fps))
+    np.testing.assert_allclose(observation[ROOT_FEATURES : ROOT_FEATURES + n], clip.joint_positions[frame], atol=1e-5)
+    assert observation[0] == pytest.approx(clip.root_position[frame, 2], abs=1e-5)  # root height
+
+
+def test_same_seed_same_episode():
+    def episode(seed):
+        env = gym.make("hotu_drake/Imitation-v0", robot="bruce", hands="none", motions=WALK)
+        observation, _ = env.reset(seed=seed)
+        rng = np.random.default_rng(0)
+        trace = [observation]
+        for _ in range(15):
+            action = np.clip(_standing(env) + 0.1 * rng.standard_normal(env.action_space.shape), -1, 1)
+            trace.append(env.step(action.astype(np.float32))[0])
+        env.close()
+        return np.array(trace)
+
+    first, second, other = episode(7), episode(7), episode(8)
+    np.testing.assert_array_equal(first, second)
+    assert not np.array_equal(first, other)
+
+
+def test_falling_terminates_the_episode(h1_env):
+    h1_env.reset(seed=0, options={"init": "default"})
+    limp = -np.ones(h1_env.action_space.shape, dtype=np.float32)  # every joint to its lower limit
+    steps = 0
+    terminated = truncated = False
+    while not (terminated or truncated) and steps < 90:
+        _, _, terminated, truncated, _ = h1_env.step(limp)
+        steps += 1
+    assert terminated and not truncated
+    assert h1_env.unwrapped.pelvis_height() < 0.9 * h1_env.unwrapped.embodiment.standing_pelvis_height
+
+
+def test_a_simulation_failure_truncates_with_a_warning(h1_env, caplog):
+    env = h1_env.unwrapped
+    h1_env.reset(seed=0, options={"init": "default"})
+
+    def fail(_time):
+        raise RuntimeError("SAP solver failed to converge")
+
+    env._advance_to = fail
+    try:
+        with caplog.at_level(logging.WARNING, logger="hotu_drake.envs"):
+            _, _, terminated, truncated, info = h1_env.step(_standing(h1_env))
+    finally:
+        del env._advance_to
+    assert truncated and not terminated
+    assert info["simulation_failure"] == "SAP solver failed to converge"
+    assert "simulation failed" in caplog.text
+
+
+def test_bad_actions_and_motions_are_refused(h1_env):
+    h1_env.reset(seed=0)
+    with pytest.raises(ValueError, match="finite"):
+        h1_env.step(np.full(h1_env.action_space.shape, np.nan, dtype=np.float32))
+    with pytest.raises(UserError, match="moonwalk"):
+        gym.make("hotu_drake/Imitation-v0", robot="h1", motions=["moonwalk"])
+
+
+def test_default_motions_are_the_whole_library(monkeypatch):
+    import hotu_drake.envs.motions as motions
+    from hotu_drake import embodiment
+
+    h1 = embodiment.load("h1", "none")
+    walk = reference_clips(h1, WALK)[0]
+    asked = []  # record the motions asked for instead of retargeting thirteen clips
+    monkeypatch.setattr(motions, "library_clip_cached", lambda motion, emb: asked.append(motion) or walk)
+    assert len(motions.reference_clips(h1)) == len(MOTIONS)
+    assert asked == list(MOTIONS)
+
+
+def test_box_carry_goal_reward_and_interaction():
+    env = gym.make("hotu_drake/BoxCarry-v0", motions=WALK)
+    check_env(env.unwrapped, skip_render_check=True)
+    inner = env.unwrapped
+    assert inner.embodiment.name == "udh"
+    observation, info = env.reset(seed=3, options={"init": "default"})
+    assert observation.shape == env.observation_space.shape
+    goal = info["goal"]
+    start = goal["start_position"]
+    assert 0.5 <= np.hypot(start[0], start[1]) <= 0.8 and 0.75 <= start[2] <= 1.0
+    assert 1.0 <= np.hypot(*goal["target"][:2]) <= 3.0
+    assert info["interaction"].shape == (11,)  # d_ho (2 hands x 3), d_og (3), e_ho (2)
+    for _ in range(10):
+        _, reward, _, _, info = env.step(_standing(env))
+    np.testing.assert_allclose(inner.object_position(), start, atol=2e-3)  # held in the air
+    np.testing.assert_allclose(info["interaction"][6:9], goal["target"] - inner.object_position(), atol=1e-5)
+    terms = info["reward_terms"]
+    distance = np.linalg.norm(inner.object_position() - goal["target"])
+    assert terms["delivery"] == pytest.approx(np.exp(-0.5 * distance**2), rel=1e-6)
+    assert terms["carrying"] == 0.0 and 0.0 <= reward <= 1.0
+    assert reward == pytest.approx(0.2 * terms["approach"] + 0.5 * terms["delivery"], rel=1e-6)
+    env.close()
+
+
+def test_drill_rests_on_the_table_until_picked_up():
+    env = gym.make("hotu_drake/DrillGrasp-v0", motions=WALK)
+    check_env(env.unwrapped, skip_render_check=True)
+    _, info = env.reset(seed=0, options={"init": "default"})
+    start = info["goal"]["start_position"]
+    for _ in range(15):
+        _, reward, _, _, info = env.step(_standing(env))
+    np.testing.assert_allclose(env.unwrapped.object_position(), start, atol=0.01)
+    assert info["goal"]["target"][2] > start[2] + 0.1 and 0.0 <= reward <= 1.0
+    env.close()
