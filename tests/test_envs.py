@@ -161,3 +161,25 @@ def test_drill_rests_on_the_table_until_picked_up():
     np.testing.assert_allclose(env.unwrapped.object_position(), start, atol=0.01)
     assert info["goal"]["target"][2] > start[2] + 0.1 and 0.0 <= reward <= 1.0
     env.close()
+
+
+@pytest.mark.parametrize("robot", ["udh", "naviai", "h1", "bruce", "walker", "curi"])
+def test_every_embodiment_makes_an_imitation_env(robot):
+    env = gym.make("hotu_drake/Imitation-v0", robot=robot, hands="none", motions=WALK)
+    n = len(env.unwrapped.embodiment.joint_names)
+    assert env.action_space.shape == (n,)
+    for init in ("reference", "default"):
+        observation, info = env.reset(seed=0, options={"init": init})
+        assert env.observation_space.contains(observation) and info["init"] == init
+        for _ in range(3):
+            observation, reward, terminated, truncated, _ = env.step(_standing(env))
+        assert np.all(np.isfinite(observation)) and not truncated
+    env.close()
+
+
+def test_full_hands_variant_has_finger_parts():
+    env = gym.make("hotu_drake/Imitation-v0", robot="h1", hands="full", motions=WALK, reference_init_probability=0.0)
+    _, info = env.reset(seed=0)
+    assert env.action_space.shape == (83,)
+    assert "finger" in info["amp"] and info["amp"]["finger"].shape[1] == 2 * 58
+    env.close()
