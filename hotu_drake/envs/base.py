@@ -69,6 +69,7 @@ class DiagramEnv(gym.Env):
         reference_init_probability: float = 0.8,
         drop_height: float = 0.05,
         termination_height: float = 0.5,
+        sampled_output_ports: bool = False,
         embodiment=None,
     ):
         if amp_history < 1 or control_rate <= 0 or time_step <= 0:
@@ -86,7 +87,7 @@ class DiagramEnv(gym.Env):
         scenario = Scenario(
             embodiment=emb.name,
             hands=emb.hands,
-            plant=PlantSettings(time_step=time_step),
+            plant=PlantSettings(time_step=time_step, sampled_output_ports=sampled_output_ports),
             initial=InitialCondition(drop_height=0.0),
             objects=list(objects or []),
         )
@@ -102,11 +103,16 @@ class DiagramEnv(gym.Env):
         plant, model = sim.plant, sim.model
         self._root = plant.GetBodyByName(emb.spec.root.name, model)
         self._pelvis = plant.GetBodyByName(emb.key_bodies["pelvis"], model)
-        self._allowed_on_floor = {
-            plant.GetBodyByName(emb.key_bodies[r], model).index() for r in FEET if r in emb.key_bodies
+        # Falling is checked on geometry (penetration with the floor), which
+        # costs a collision query, not a contact solve.
+        feet = {plant.GetBodyByName(emb.key_bodies[r], model).index() for r in FEET if r in emb.key_bodies}
+        self._floor = set(plant.GetCollisionGeometriesForBody(plant.world_body()))
+        self._not_on_floor = {
+            geometry
+            for index in plant.GetBodyIndices(model)
+            if index not in feet
+            for geometry in plant.GetCollisionGeometriesForBody(plant.get_body(index))
         }
-        self._robot_bodies = set(plant.GetBodyIndices(model))
-        self._world = plant.world_body().index()
         self._joints = [plant.GetJointByName(n, model) for n in emb.joint_names]
         self._samplers = [ReferenceMotionSource(c, loop=False, floating_base=emb.floating_base) for c in self.clips]
         n = len(emb.joint_names)
@@ -248,12 +254,10 @@ class DiagramEnv(gym.Env):
             return False
         if self.pelvis_height() < self.termination_height:
             return True
-        contacts = self.sim.plant.get_contact_results_output_port().Eval(self._plant_context)
-        world, robot, allowed = self._world, self._robot_bodies, self._allowed_on_floor
-        for i in range(contacts.num_point_pair_contacts()):
-            info = contacts.point_pair_contact_info(i)
-            a, b = info.bodyA_index(), info.bodyB_index()
-            other = b if a == world else a if b == world else None
-            if other is not None and other in robot and other not in allowed:
+        query = self.sim.plant.get_geometry_query_input_port().Eval(self._plant_context)
+        floor, body = self._floor, self._not_on_floor
+        for pair in query.ComputePointPairPenetration():
+            a, b = pair.id_A, pair.id_B
+            if (a in floor and b in body) or (b in floor and a in body):
                 return True
         return False
