@@ -185,117 +185,27 @@ def build_simulation(
     if scenario.perturbations:
         cubes = add_perturbation_cubes(plant, scenario.perturbations)
     plant.Finalize()
-    order = actuated_joint_order(plant, model)
-    if order != emb.joint_names:
+    if actuated_joint_order(plant, model) != emb.joint_names:
         raise RuntimeError(f"{emb.name}: actuator order differs from the spec's joint order")
 
-    systems: dict = {}
-    n = len(emb.joint_names)
-    add = builder.AddNamedSystem
-
-    # The PD targets: positions (and, for the built-in PD, velocities).
+    wiring = _Wiring(builder, plant, scene_graph, model, emb)
     if policy is not None or action_input:
-        observation = systems["observation"] = add("observation", ObservationSystem(plant, model, emb))
-        builder.Connect(plant.get_state_output_port(model), observation.get_input_port(0))
-        # a -> q* = offset + scale a (and v* = 0): a C++ system, no Python per step.
-        scaling = ActionScaling.for_embodiment(emb)
-        rows = n if explicit else 2 * n
-        gain = np.zeros((rows, n))
-        gain[:n] = np.diag(scaling.scale)
-        offset = np.zeros(rows)
-        offset[:n] = scaling.offset
-        targets = add("action_to_targets", _static_gain(gain, offset))
-        target_port = targets.get_output_port()
-        if policy is None:
-            builder.ExportInput(targets.get_input_port(), "action")
-        else:
-            systems["policy"] = add("policy", policy)
-            builder.Connect(observation.GetOutputPort("observation"), policy.GetInputPort("observation"))
-            for port in range(1, policy.num_input_ports()):
-                latent = policy.get_input_port(port)
-                source = add(f"{latent.get_name()}_source", ConstantVectorSource(np.zeros(latent.size())))
-                builder.Connect(source.get_output_port(), latent)
-            builder.Connect(policy.GetOutputPort("action"), targets.get_input_port())
+        target_port = _targets_from_actions(wiring, explicit, policy)
     elif clip is not None:
-        reference = systems["reference"] = add("reference", _reference_source(scenario, emb, clip, fixed))
-        builder.ExportOutput(reference.GetOutputPort("joint_positions"), "reference_joint_positions")
-        if explicit:
-            target_port = reference.GetOutputPort("joint_positions")
-        else:
-            desired = add("reference_desired_state", Multiplexer([n, n]))
-            builder.Connect(reference.GetOutputPort("joint_positions"), desired.get_input_port(0))
-            builder.Connect(reference.GetOutputPort("joint_velocities"), desired.get_input_port(1))
-            target_port = desired.get_output_port()
+        target_port = _targets_from_reference(wiring, explicit, _reference_source(scenario, emb, clip, fixed))
     elif base_command:
-        base = tuple(order.index(j) for j in emb.base_joints)
-        if len(base) != 3:
-            raise ValueError(f"{emb.name} has no planar base to command")
-        command = systems["base_command"] = add(
-            "base_command", PlanarBaseCommand(emb.standing_pose, base, settings.time_step)
-        )
-        builder.ExportInput(command.get_input_port(), "twist")
-        target_port = command.get_output_port()
+        target_port = _targets_from_base_command(wiring, settings.time_step)
     else:
-        standing = emb.standing_pose if explicit else np.concatenate([emb.standing_pose, np.zeros(n)])
-        target_port = add("standing_targets", ConstantVectorSource(standing)).get_output_port()
-
-    if explicit:
-        controller = systems["pd"] = add("pd", SaturatedPdController(plant, model, emb))
-        builder.Connect(plant.get_state_output_port(model), controller.get_input_port(0))
-        builder.Connect(target_port, controller.get_input_port(1))
-        builder.Connect(controller.get_output_port(0), plant.get_actuation_input_port(model))
-    else:
-        builder.Connect(target_port, plant.get_desired_state_input_port(model))
-
-    if scenario.observation and "observation" not in systems:
-        observation = systems["observation"] = add("observation", ObservationSystem(plant, model, emb))
-        builder.Connect(plant.get_state_output_port(model), observation.get_input_port(0))
-    if "observation" in systems:
-        builder.ExportOutput(systems["observation"].GetOutputPort("observation"), "observation")
-        builder.ExportOutput(systems["observation"].GetOutputPort("amp_observation"), "amp_observation")
-    if "policy" in systems:
-        builder.ExportOutput(systems["policy"].GetOutputPort("action"), "action")
-
-    graph_objects = {
-        o.instance_name: plant.GetBodyByName(o.kind, objects[o.instance_name])
-        for o in scenario.objects
-        if _is_task_object(o)
-    }
-    if graph_objects and {"left_hand", "right_hand", "pelvis"} <= emb.key_bodies.keys():
-        graph = systems["interaction_graph"] = add(
-            "interaction_graph", InteractionGraphSystem(plant, model, emb, graph_objects)
+        standing = (
+            emb.standing_pose if explicit else np.concatenate([emb.standing_pose, np.zeros_like(emb.standing_pose)])
         )
-        goals = [o.target or o.position for o in scenario.objects if o.instance_name in graph_objects]
-        targets = systems["object_targets"] = add("object_targets", ConstantVectorSource(np.ravel(goals).astype(float)))
-        builder.Connect(plant.get_body_poses_output_port(), graph.GetInputPort("body_poses"))
-        builder.Connect(plant.get_contact_results_output_port(), graph.GetInputPort("contact_results"))
-        builder.Connect(targets.get_output_port(), graph.GetInputPort("object_targets"))
-        builder.ExportOutput(graph.GetOutputPort("interaction"), "interaction")
-        builder.ExportOutput(graph.GetOutputPort("graph"), "interaction_graph")
-
-    force_sources = []
-    if scenario.perturbations:
-        torso = plant.GetBodyByName(emb.key_bodies["torso"], model)
-        thrower = systems["perturbation"] = add(
-            "perturbation", Perturbation(plant, cubes, scenario.perturbations, torso, settings.time_step)
-        )
-        builder.Connect(plant.get_body_poses_output_port(), thrower.get_input_port(0))
-        force_sources.append(thrower.get_output_port(0))
-    held = [o for o in scenario.objects if o.held]
-    if held:
-        bodies = [plant.GetBodyByName(o.kind, objects[o.instance_name]) for o in held]
-        holder = systems["object_holder"] = add(
-            "object_holder", ObjectHolder(plant, model, bodies, 1.0 / scenario.policy.control_rate)
-        )
-        builder.Connect(plant.get_contact_results_output_port(), holder.GetInputPort("contact_results"))
-        force_sources.append(holder.GetOutputPort("spatial_forces"))
-    if len(force_sources) == 1:
-        builder.Connect(force_sources[0], plant.get_applied_spatial_force_input_port())
-    elif force_sources:
-        mux = add("applied_forces", ExternallyAppliedSpatialForceMultiplexer(len(force_sources)))
-        for i, port in enumerate(force_sources):
-            builder.Connect(port, mux.get_input_port(i))
-        builder.Connect(mux.get_output_port(), plant.get_applied_spatial_force_input_port())
+        target_port = wiring.add("standing_targets", ConstantVectorSource(standing)).get_output_port()
+    _connect_pd(wiring, explicit, target_port)
+    if scenario.observation and "observation" not in wiring.systems:
+        _add_observation(wiring)
+    _add_interaction_graph(wiring, scenario, objects)
+    _add_applied_forces(wiring, scenario, objects, cubes)
+    systems = wiring.systems
 
     if meshcat is not None:
         _add_visualization(builder, scene_graph, plant, meshcat, scenario)
@@ -338,6 +248,133 @@ def build_standing_simulation(
         perturbations=list(perturbations or []),
     )
     return build_simulation(scenario, meshcat, embodiment=embodiment, base_command=base_command)
+
+
+@dataclass
+class _Wiring:
+    """What the wiring helpers below share while a diagram is built."""
+
+    builder: DiagramBuilder
+    plant: MultibodyPlant
+    scene_graph: object
+    model: object
+    embodiment: Embodiment
+    systems: dict = field(default_factory=dict)
+
+    def add(self, name: str, system, keep: bool = False):
+        """Add a named system (and list it in `systems` if `keep`)."""
+        added = self.builder.AddNamedSystem(name, system)
+        if keep:
+            self.systems[name] = added
+        return added
+
+
+def _add_observation(w: _Wiring) -> ObservationSystem:
+    observation = w.add("observation", ObservationSystem(w.plant, w.model, w.embodiment), keep=True)
+    w.builder.Connect(w.plant.get_state_output_port(w.model), observation.GetInputPort("state"))
+    w.builder.ExportOutput(observation.GetOutputPort("observation"), "observation")
+    w.builder.ExportOutput(observation.GetOutputPort("amp_observation"), "amp_observation")
+    return observation
+
+
+def _targets_from_actions(w: _Wiring, explicit: bool, policy):
+    """Normalised actions -> PD targets, from the policy or an exported `action` input."""
+    observation = _add_observation(w)
+    # a -> q* = offset + scale a (and v* = 0): a C++ system, no Python per step.
+    scaling = ActionScaling.for_embodiment(w.embodiment)
+    n = scaling.scale.size
+    rows = n if explicit else 2 * n
+    gain, offset = np.zeros((rows, n)), np.zeros(rows)
+    gain[:n], offset[:n] = np.diag(scaling.scale), scaling.offset
+    targets = w.add("action_to_targets", _static_gain(gain, offset))
+    if policy is None:
+        w.builder.ExportInput(targets.get_input_port(), "action")
+        return targets.get_output_port()
+    w.add("policy", policy, keep=True)
+    w.builder.Connect(observation.GetOutputPort("observation"), policy.GetInputPort("observation"))
+    for port in range(1, policy.num_input_ports()):  # skill latents: zero until skills are composed
+        latent = policy.get_input_port(port)
+        source = w.add(f"{latent.get_name()}_source", ConstantVectorSource(np.zeros(latent.size())))
+        w.builder.Connect(source.get_output_port(), latent)
+    w.builder.Connect(policy.GetOutputPort("action"), targets.get_input_port())
+    w.builder.ExportOutput(policy.GetOutputPort("action"), "action")
+    return targets.get_output_port()
+
+
+def _targets_from_reference(w: _Wiring, explicit: bool, source: ReferenceMotionSource):
+    reference = w.add("reference", source, keep=True)
+    w.builder.ExportOutput(reference.GetOutputPort("joint_positions"), "reference_joint_positions")
+    if explicit:
+        return reference.GetOutputPort("joint_positions")
+    n = len(w.embodiment.joint_names)
+    desired = w.add("reference_desired_state", Multiplexer([n, n]))
+    w.builder.Connect(reference.GetOutputPort("joint_positions"), desired.get_input_port(0))
+    w.builder.Connect(reference.GetOutputPort("joint_velocities"), desired.get_input_port(1))
+    return desired.get_output_port()
+
+
+def _targets_from_base_command(w: _Wiring, time_step: float):
+    emb = w.embodiment
+    base = tuple(emb.joint_names.index(j) for j in emb.base_joints)
+    if len(base) != 3:
+        raise ValueError(f"{emb.name} has no planar base to command")
+    command = w.add("base_command", PlanarBaseCommand(emb.standing_pose, base, time_step), keep=True)
+    w.builder.ExportInput(command.get_input_port(), "twist")
+    return command.get_output_port()
+
+
+def _connect_pd(w: _Wiring, explicit: bool, target_port) -> None:
+    """Targets into the plant's built-in PD, or through the explicit controller."""
+    plant, model = w.plant, w.model
+    if not explicit:
+        w.builder.Connect(target_port, plant.get_desired_state_input_port(model))
+        return
+    controller = w.add("pd", SaturatedPdController(plant, model, w.embodiment), keep=True)
+    w.builder.Connect(plant.get_state_output_port(model), controller.GetInputPort("state"))
+    w.builder.Connect(target_port, controller.GetInputPort("targets"))
+    w.builder.Connect(controller.GetOutputPort("torques"), plant.get_actuation_input_port(model))
+
+
+def _add_interaction_graph(w: _Wiring, scenario: Scenario, objects: dict) -> None:
+    """The graph over the hands, the body and the free box or drill, if any."""
+    plant, emb = w.plant, w.embodiment
+    task = [o for o in scenario.objects if _is_task_object(o)]
+    if not task or not {"left_hand", "right_hand", "pelvis"} <= emb.key_bodies.keys():
+        return
+    bodies = {o.instance_name: plant.GetBodyByName(o.kind, objects[o.instance_name]) for o in task}
+    graph = w.add("interaction_graph", InteractionGraphSystem(plant, w.model, emb, bodies), keep=True)
+    goals = np.ravel([o.target or o.position for o in task]).astype(float)
+    targets = w.add("object_targets", ConstantVectorSource(goals), keep=True)
+    w.builder.Connect(plant.get_body_poses_output_port(), graph.GetInputPort("body_poses"))
+    w.builder.Connect(plant.get_contact_results_output_port(), graph.GetInputPort("contact_results"))
+    w.builder.Connect(targets.get_output_port(), graph.GetInputPort("object_targets"))
+    w.builder.ExportOutput(graph.GetOutputPort("interaction"), "interaction")
+    w.builder.ExportOutput(graph.GetOutputPort("graph"), "interaction_graph")
+
+
+def _add_applied_forces(w: _Wiring, scenario: Scenario, objects: dict, cubes: list) -> None:
+    """Thrown cubes and held objects push through the plant's applied-force input."""
+    plant, builder = w.plant, w.builder
+    sources = []
+    if scenario.perturbations:
+        torso = plant.GetBodyByName(w.embodiment.key_bodies["torso"], w.model)
+        time_step = scenario.plant.time_step
+        thrower = w.add("perturbation", Perturbation(plant, cubes, scenario.perturbations, torso, time_step), keep=True)
+        builder.Connect(plant.get_body_poses_output_port(), thrower.GetInputPort("body_poses"))
+        sources.append(thrower.GetOutputPort("spatial_forces"))
+    held = [plant.GetBodyByName(o.kind, objects[o.instance_name]) for o in scenario.objects if o.held]
+    if held:
+        period = 1.0 / scenario.policy.control_rate
+        holder = w.add("object_holder", ObjectHolder(plant, w.model, held, period), keep=True)
+        builder.Connect(w.scene_graph.get_query_output_port(), holder.GetInputPort("geometry_query"))
+        sources.append(holder.GetOutputPort("spatial_forces"))
+    if len(sources) == 1:
+        builder.Connect(sources[0], plant.get_applied_spatial_force_input_port())
+    elif sources:
+        mux = w.add("applied_forces", ExternallyAppliedSpatialForceMultiplexer(len(sources)))
+        for i, port in enumerate(sources):
+            builder.Connect(port, mux.get_input_port(i))
+        builder.Connect(mux.get_output_port(), plant.get_applied_spatial_force_input_port())
 
 
 def _static_gain(gain: np.ndarray, offset: np.ndarray) -> AffineSystem:

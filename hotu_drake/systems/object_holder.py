@@ -8,16 +8,17 @@ state) and falls or is carried like any free body.
 
 import numpy as np
 from pydrake.common.value import Value
+from pydrake.geometry import QueryObject
 from pydrake.multibody.math import SpatialForce
-from pydrake.multibody.plant import ContactResults, ExternallyAppliedSpatialForce, MultibodyPlant
+from pydrake.multibody.plant import ExternallyAppliedSpatialForce, MultibodyPlant
 from pydrake.systems.framework import LeafSystem
 
 GRAVITY = 9.81
 
 
 class ObjectHolder(LeafSystem):
-    """Input port `contact_results` (the plant's); output port
-    `spatial_forces` (to the plant's applied spatial force input) and
+    """Input port `geometry_query` (the scene graph's query output); output
+    ports `spatial_forces` (to the plant's applied spatial force input) and
     `released` (1 per object once it has been touched)."""
 
     def __init__(self, plant: MultibodyPlant, robot_model, bodies: list, check_period: float = 1.0 / 30.0):
@@ -25,8 +26,11 @@ class ObjectHolder(LeafSystem):
         self._bodies = [b.index() for b in bodies]
         self._weights = [b.default_mass() * GRAVITY for b in bodies]
         self._centres = [np.asarray(b.default_com()) for b in bodies]
-        self._robot = set(plant.GetBodyIndices(robot_model))
-        self.DeclareAbstractInputPort("contact_results", Value(ContactResults()))
+        self._object_geometries = [set(plant.GetCollisionGeometriesForBody(b)) for b in bodies]
+        self._robot_geometries = {
+            g for i in plant.GetBodyIndices(robot_model) for g in plant.GetCollisionGeometriesForBody(plant.get_body(i))
+        }
+        self.DeclareAbstractInputPort("geometry_query", Value(QueryObject()))
         self._released = self.DeclareDiscreteState(len(bodies))
         self.DeclarePeriodicDiscreteUpdateEvent(check_period, 0.0, self._Update)
         self.DeclareAbstractOutputPort(
@@ -41,12 +45,12 @@ class ObjectHolder(LeafSystem):
         released = context.get_discrete_state(self._released).get_value().copy()
         if released.all():
             return
-        contacts = self.get_input_port(0).Eval(context)
-        for i in range(contacts.num_point_pair_contacts()):
-            info = contacts.point_pair_contact_info(i)
-            pair = (info.bodyA_index(), info.bodyB_index())
-            for k, body in enumerate(self._bodies):
-                if body in pair and (pair[0] in self._robot or pair[1] in self._robot):
+        query = self.get_input_port(0).Eval(context)
+        robot = self._robot_geometries
+        for pair in query.ComputePointPairPenetration():
+            a, b = pair.id_A, pair.id_B
+            for k, mine in enumerate(self._object_geometries):
+                if (a in mine and b in robot) or (b in mine and a in robot):
                     released[k] = 1.0
         discrete_state.set_value(self._released, released)
 
