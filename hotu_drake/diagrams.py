@@ -219,7 +219,7 @@ def build_simulation(
     sampler = None
     if clip is not None and scenario.initial.reference_time >= 0:
         sampler = systems.get("reference") or _reference_source(scenario, emb, clip, fixed)
-    _set_initial_state(plant, plant_context, model, emb, scenario.initial.drop_height, sampler, fixed)
+    set_robot_state(plant, plant_context, model, emb, sampler, drop_height=scenario.initial.drop_height, fixed=fixed)
     for obj in scenario.objects:
         if not obj.fixed and not obj.kind == "target_marker":
             body = plant.GetBodyByName(obj.kind, objects[obj.instance_name])
@@ -433,14 +433,24 @@ def _reference_source(scenario: Scenario, emb: Embodiment, clip: MotionClip, fix
     return ReferenceMotionSource(clip, scenario.reference.loop, emb.floating_base and not fixed, start_time=start)
 
 
-def _set_initial_state(plant, plant_context, model, emb, drop_height, reference, fixed) -> None:
-    """The standing pose dropped from `drop_height`, or (given a `reference`
-    source) the reference state at time 0."""
+def set_robot_state(
+    plant: MultibodyPlant,
+    plant_context,
+    model,
+    emb: Embodiment,
+    reference: ReferenceMotionSource | None = None,
+    time: float = 0.0,
+    drop_height: float = 0.0,
+    fixed: bool = False,
+) -> None:
+    """Put the robot in the standing pose `drop_height` above standing
+    height, at rest; or, given a `reference` source, in the reference state
+    (pose and velocities) it plays at simulation time `time`. A fixed or
+    planar base sets the joints only."""
     positions = plant.GetPositions(plant_context)
     velocities = plant.GetVelocities(plant_context)
-    from_clip = reference is not None
-    if from_clip:
-        q, v = reference.joints_at(0.0)
+    if reference is not None:
+        q, v = reference.joints_at(time)
     else:
         q, v = emb.standing_pose, np.zeros(len(emb.joint_names))
     for name, qi, vi in zip(emb.joint_names, q, v):
@@ -452,13 +462,12 @@ def _set_initial_state(plant, plant_context, model, emb, drop_height, reference,
     if not emb.floating_base or fixed:
         return
     root = plant.GetBodyByName(emb.spec.root.name, model)
-    if from_clip:
-        quaternion, position, omega, linear = reference.root_at(0.0)
+    if reference is not None:
+        quaternion, position, omega, linear = reference.root_at(time)
         plant.SetFreeBodyPose(plant_context, root, RigidTransform(Quaternion(quaternion), position))
         plant.SetFreeBodySpatialVelocity(plant_context, root, SpatialVelocity(omega, linear))
     else:
-        height = emb.standing_root_height + drop_height
-        plant.SetFreeBodyPose(plant_context, root, RigidTransform([0.0, 0.0, height]))
+        plant.SetFreeBodyPose(plant_context, root, RigidTransform([0.0, 0.0, emb.standing_root_height + drop_height]))
 
 
 def _add_visualization(builder, scene_graph, plant, meshcat: Meshcat, scenario: Scenario) -> None:

@@ -19,12 +19,9 @@ from dataclasses import dataclass
 
 import gymnasium as gym
 import numpy as np
-from pydrake.common.eigen_geometry import Quaternion
-from pydrake.math import RigidTransform
-from pydrake.multibody.math import SpatialVelocity
 
 from hotu_drake import embodiment as embodiments
-from hotu_drake.diagrams import Simulation, build_simulation
+from hotu_drake.diagrams import Simulation, build_simulation, set_robot_state
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.scenario import InitialCondition, PlantSettings, Scenario, SceneObject
 from hotu_drake.systems.reference import ReferenceMotionSource
@@ -113,7 +110,6 @@ class DiagramEnv(gym.Env):
             if index not in feet
             for geometry in plant.GetCollisionGeometriesForBody(plant.get_body(index))
         }
-        self._joints = [plant.GetJointByName(n, model) for n in emb.joint_names]
         self._samplers = [ReferenceMotionSource(c, loop=False, floating_base=emb.floating_base) for c in self.clips]
         n = len(emb.joint_names)
         self.action_space = gym.spaces.Box(-1.0, 1.0, (n,), np.float32)
@@ -212,30 +208,13 @@ class DiagramEnv(gym.Env):
 
         return np.clip(ActionScaling.for_embodiment(self.embodiment).to_action(self.embodiment.standing_pose), -1, 1)
 
-    def _set_joints(self, q: np.ndarray, v: np.ndarray) -> None:
-        plant, context = self.sim.plant, self._plant_context
-        positions, velocities = plant.GetPositions(context), plant.GetVelocities(context)
-        for joint, qi, vi in zip(self._joints, q, v):
-            positions[joint.position_start()] = qi
-            velocities[joint.velocity_start()] = vi
-        plant.SetPositions(context, positions)
-        plant.SetVelocities(context, velocities)
-
     def _set_default_state(self, drop: float) -> None:
-        emb = self.embodiment
-        self._set_joints(emb.standing_pose, np.zeros(len(emb.joint_names)))
-        if emb.floating_base:
-            pose = RigidTransform([0.0, 0.0, emb.standing_root_height + drop])
-            self.sim.plant.SetFreeBodyPose(self._plant_context, self._root, pose)
+        sim = self.sim
+        set_robot_state(sim.plant, self._plant_context, sim.model, self.embodiment, drop_height=drop)
 
     def _set_reference_state(self, sampler: ReferenceMotionSource, time_: float) -> None:
-        q, v = sampler.joints_at(time_)
-        self._set_joints(q, v)
-        if self.embodiment.floating_base:
-            quaternion, position, omega, linear = sampler.root_at(time_)
-            plant = self.sim.plant
-            plant.SetFreeBodyPose(self._plant_context, self._root, RigidTransform(Quaternion(quaternion), position))
-            plant.SetFreeBodySpatialVelocity(self._plant_context, self._root, SpatialVelocity(omega, linear))
+        sim = self.sim
+        set_robot_state(sim.plant, self._plant_context, sim.model, self.embodiment, sampler, time=time_)
 
     def _observe(self) -> np.ndarray:
         robot = self._observation_port.Eval(self._context)
