@@ -27,7 +27,7 @@ from pydrake.geometry import (
     MeshcatVisualizerParams,
     Role,
 )
-from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.math import SpatialVelocity
 from pydrake.multibody.plant import (
     AddMultibodyPlant,
@@ -44,11 +44,11 @@ from hotu_drake.cli import UserError
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.objects import add_object
-from hotu_drake.scenario import InitialCondition, PlantSettings, Scenario
+from hotu_drake.scenario import InitialCondition, PlantSettings, Scenario, SceneObject
 from hotu_drake.systems.base_command import PlanarBaseCommand
 from hotu_drake.systems.interaction_graph import InteractionGraphSystem
 from hotu_drake.systems.object_holder import ObjectHolder
-from hotu_drake.systems.observation import ObservationSystem
+from hotu_drake.systems.observation import ObservationSystem, heading_rotation
 from hotu_drake.systems.pd import ActionScaling, SaturatedPdController
 from hotu_drake.systems.perturbation import Perturbation, add_perturbation_cubes, place_perturbation_cubes
 from hotu_drake.systems.reference import ReferenceMotionSource
@@ -223,7 +223,7 @@ def build_simulation(
     for obj in scenario.objects:
         if not obj.fixed and not obj.kind == "target_marker":
             body = plant.GetBodyByName(obj.kind, objects[obj.instance_name])
-            plant.SetFreeBodyPose(plant_context, body, _object_pose(obj))
+            plant.SetFreeBodyPose(plant_context, body, object_pose(obj))
     if cubes:
         place_perturbation_cubes(plant, plant_context, cubes, scenario.perturbations)
     simulator.Initialize()
@@ -410,7 +410,8 @@ def _is_task_object(obj) -> bool:
     return obj.kind in ("box", "drill") and not obj.fixed
 
 
-def _object_pose(obj) -> RigidTransform:
+def object_pose(obj: SceneObject) -> RigidTransform:
+    """Where a scene object starts (or is welded): its position, turned by its yaw."""
     return RigidTransform(RollPitchYaw(0.0, 0.0, obj.yaw), np.asarray(obj.position, dtype=float))
 
 
@@ -418,7 +419,7 @@ def _add_objects(plant: MultibodyPlant, scenario: Scenario) -> dict:
     """Add the scenario's objects (and a marker at each target) before Finalize."""
     objects = {}
     for obj in scenario.objects:
-        weld = _object_pose(obj) if obj.fixed or obj.kind == "target_marker" else None
+        weld = object_pose(obj) if obj.fixed or obj.kind == "target_marker" else None
         objects[obj.instance_name] = add_object(plant, obj.kind, obj.instance_name, weld=weld)
         if obj.target:
             marker = f"{obj.instance_name}_target"
@@ -442,11 +443,13 @@ def set_robot_state(
     time: float = 0.0,
     drop_height: float = 0.0,
     fixed: bool = False,
+    align: bool = False,
 ) -> None:
     """Put the robot in the standing pose `drop_height` above standing
     height, at rest; or, given a `reference` source, in the reference state
-    (pose and velocities) it plays at simulation time `time`. A fixed or
-    planar base sets the joints only."""
+    (pose and velocities) it plays at simulation time `time`. With `align`
+    the reference state is moved and turned about z so that the root
+    starts over the origin facing +x. A fixed or planar base sets the joints only."""
     positions = plant.GetPositions(plant_context)
     velocities = plant.GetVelocities(plant_context)
     if reference is not None:
@@ -464,7 +467,12 @@ def set_robot_state(
     root = plant.GetBodyByName(emb.spec.root.name, model)
     if reference is not None:
         quaternion, position, omega, linear = reference.root_at(time)
-        plant.SetFreeBodyPose(plant_context, root, RigidTransform(Quaternion(quaternion), position))
+        pose = RigidTransform(Quaternion(quaternion), position)
+        if align:
+            yaw = heading_rotation(pose.rotation().matrix())
+            turn = RigidTransform(RotationMatrix(yaw.T), -yaw.T @ [position[0], position[1], 0.0])
+            pose, omega, linear = turn @ pose, yaw.T @ omega, yaw.T @ linear
+        plant.SetFreeBodyPose(plant_context, root, pose)
         plant.SetFreeBodySpatialVelocity(plant_context, root, SpatialVelocity(omega, linear))
     else:
         plant.SetFreeBodyPose(plant_context, root, RigidTransform([0.0, 0.0, emb.standing_root_height + drop_height]))

@@ -58,6 +58,23 @@ def test_reference_state_initialisation_starts_on_the_clip(h1_env):
     frame = int(round(1.0 * clip.fps))
     np.testing.assert_allclose(observation[ROOT_FEATURES : ROOT_FEATURES + n], clip.joint_positions[frame], atol=1e-5)
     assert observation[0] == pytest.approx(clip.root_position[frame, 2], abs=1e-5)  # root height
+    # Moved over the origin, facing +x (tasks place their objects from there).
+    root = env.sim.plant.EvalBodyPoseInWorld(env._plant_context, env._root)
+    np.testing.assert_allclose(root.translation()[:2], [0.0, 0.0], atol=1e-9)
+    forward = root.rotation().matrix()[:, 0]
+    assert forward[1] == pytest.approx(0.0, abs=1e-9) and forward[0] > 0
+    # The AMP history is the clip's own past: frame k is the clip 1/30 s before frame k + 1.
+    frames = info["amp"]["hip"]
+    hip = env.part_slices["hip"]
+    for k, back in enumerate(range(env.amp_history - 1, 0, -1)):
+        expected = env.clip_amp_frame(0, 1.0 - back * env.control_period)[hip]
+        np.testing.assert_allclose(frames[k], expected, atol=1e-5)
+    assert not np.allclose(frames[0], frames[-1])
+
+
+def test_the_control_period_must_be_whole_steps():
+    with pytest.raises(ValueError, match="whole number"):
+        gym.make("hotu_drake/Imitation-v0", robot="bruce", motions="walk", time_step=0.005)
 
 
 def test_same_seed_same_episode():
@@ -96,15 +113,27 @@ def test_a_simulation_failure_truncates_with_a_warning(h1_env, caplog):
     def fail(_time):
         raise RuntimeError("SAP solver failed to converge")
 
+    last, _, _, _, _ = h1_env.step(_standing(h1_env))
     env._advance_to = fail
     try:
         with caplog.at_level(logging.WARNING, logger="hotu_drake.envs"):
-            _, _, terminated, truncated, info = h1_env.step(_standing(h1_env))
+            observation, reward, terminated, truncated, info = h1_env.step(_standing(h1_env))
     finally:
         del env._advance_to
-    assert truncated and not terminated
+    assert truncated and not terminated and reward == 0.0
     assert info["simulation_failure"] == "SAP solver failed to converge"
     assert "simulation failed" in caplog.text
+    np.testing.assert_array_equal(observation, last)  # the last good observation, not a broken one
+
+    # A state that diverges without an exception ends the same way.
+    h1_env.reset(seed=0, options={"init": "default"})
+    env._observe = lambda: np.full(env.observation_space.shape, np.nan, dtype=np.float32)
+    try:
+        observation, _, terminated, truncated, info = h1_env.step(_standing(h1_env))
+    finally:
+        del env._observe
+    assert truncated and not terminated and np.all(np.isfinite(observation))
+    assert "diverged" in info["simulation_failure"]
 
 
 def test_bad_actions_and_motions_are_refused(h1_env):
@@ -182,4 +211,29 @@ def test_full_hands_variant_has_finger_parts():
     _, info = env.reset(seed=0)
     assert env.action_space.shape == (83,)
     assert "finger" in info["amp"] and info["amp"]["finger"].shape[1] == 2 * 58
+    env.close()
+
+
+def test_extra_objects_go_back_to_their_start_at_every_reset():
+    from hotu_drake.envs.base import DiagramEnv
+    from hotu_drake.scenario import SceneObject
+
+    env = DiagramEnv(robot="bruce", objects=[SceneObject(kind="box", name="crate", position=[1.0, 0.5, 0.15])])
+    for seed in (0, 1):
+        env.reset(seed=seed)
+        for _ in range(5):
+            env.step(_standing(env))
+        crate = env.sim.plant.GetBodyByName("box", env.sim.objects["crate"])
+        position = env.sim.plant.EvalBodyPoseInWorld(env._plant_context, crate).translation()
+        np.testing.assert_allclose(position[:2], [1.0, 0.5], atol=1e-3)  # rests where it was put
+
+
+def test_a_reference_start_puts_the_box_in_front_of_the_robot():
+    env = gym.make("hotu_drake/BoxCarry-v0", motions=WALK)
+    inner = env.unwrapped
+    for seed in range(3):
+        _, info = env.reset(seed=seed, options={"init": "reference"})
+        root = inner.sim.plant.EvalBodyPoseInWorld(inner._plant_context, inner._root)
+        ahead = root.rotation().matrix().T @ (inner.object_position() - root.translation())
+        assert ahead[0] > 0.4, ahead
     env.close()

@@ -103,7 +103,9 @@ def vectorised(robot: str, hands: str, seconds: float, motions: list[str], num_e
     }
 
 
-def mujoco_peer(robot: str, hands: str, seconds: float, time_step: float = 0.005, control_rate: float = 30.0) -> dict:
+def mujoco_peer(
+    robot: str, hands: str, seconds: float, time_step: float = 1.0 / 180.0, control_rate: float = 30.0
+) -> dict:
     """The same loop under MuJoCo (the `mujoco` extra)."""
     try:
         import mujoco
@@ -136,7 +138,6 @@ def mujoco_peer(robot: str, hands: str, seconds: float, time_step: float = 0.005
     start = time.perf_counter()
     while time.perf_counter() - start < seconds:
         data.ctrl[actuator] = scaling.to_targets(next(actions))
-        # As many whole time steps as reach the next control instant (6 or 7 at 5 ms and 30 Hz).
         next_control = (steps - episode_start + 1) * period
         substeps = max(1, int(round((next_control - data.time) / time_step)))
         mujoco.mj_step(model, data, nstep=substeps)

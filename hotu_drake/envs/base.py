@@ -21,9 +21,9 @@ import gymnasium as gym
 import numpy as np
 
 from hotu_drake import embodiment as embodiments
-from hotu_drake.diagrams import Simulation, build_simulation, set_robot_state
+from hotu_drake.diagrams import Simulation, build_simulation, object_pose, set_robot_state
 from hotu_drake.motion.clip import MotionClip
-from hotu_drake.scenario import InitialCondition, PlantSettings, Scenario, SceneObject
+from hotu_drake.scenario import InitialCondition, PlantSettings, PolicySettings, Scenario, SceneObject
 from hotu_drake.systems.reference import ReferenceMotionSource
 
 log = logging.getLogger("hotu_drake.envs")
@@ -61,7 +61,7 @@ class DiagramEnv(gym.Env):
         clips: list[MotionClip] | None = None,
         objects: list[SceneObject] | None = None,
         control_rate: float = 30.0,
-        time_step: float = 0.005,
+        time_step: float = 1.0 / 180.0,
         amp_history: int = 10,
         reference_init_probability: float = 0.8,
         drop_height: float = 0.05,
@@ -73,6 +73,10 @@ class DiagramEnv(gym.Env):
             raise ValueError("amp_history must be >= 1, control_rate and time_step > 0")
         if not 0.0 <= reference_init_probability <= 1.0:
             raise ValueError("reference_init_probability must be in [0, 1]")
+        substeps = round(1.0 / (control_rate * time_step))
+        if substeps < 1 or abs(substeps * time_step * control_rate - 1.0) > 1e-9:
+            # Otherwise actions would be held, and AMP frames spaced, unevenly.
+            raise ValueError(f"the control period 1/{control_rate} s must be a whole number of {time_step} s steps")
         self.embodiment = embodiment or embodiments.load(robot, hands)
         emb = self.embodiment
         self.clips = list(clips or [])
@@ -86,6 +90,7 @@ class DiagramEnv(gym.Env):
             hands=emb.hands,
             plant=PlantSettings(time_step=time_step, sampled_output_ports=sampled_output_ports),
             initial=InitialCondition(drop_height=0.0),
+            policy=PolicySettings(control_rate=control_rate),
             objects=list(objects or []),
         )
         self.sim: Simulation = build_simulation(scenario, embodiment=emb, action_input=True)
@@ -115,6 +120,10 @@ class DiagramEnv(gym.Env):
         self.action_space = gym.spaces.Box(-1.0, 1.0, (n,), np.float32)
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (self._observation_size(),), np.float32)
         self._history: deque = deque(maxlen=amp_history)
+        self._objects = [o for o in scenario.objects if not o.fixed and o.kind != "target_marker"]
+        # A scratch context of the observation system, for AMP frames of clip states.
+        self._scratch_plant = sim.plant.CreateDefaultContext()
+        self._scratch_observer = observer.CreateDefaultContext()
         self.timings = EnvTimings()
         self.init_kind = "default"
 
@@ -145,24 +154,30 @@ class DiagramEnv(gym.Env):
             kind = "reference" if self.np_random.random() < self.reference_init_probability else "default"
         if kind == "reference" and not self.clips:
             raise ValueError("reference initialisation needs reference clips")
+        history = None
         if kind == "reference":
             index = options.get("clip", int(self.np_random.integers(len(self.clips))))
             clip = self.clips[index]
             start = options.get("time", float(self.np_random.uniform(0.0, max(clip.duration - 0.1, 0.0))))
             self._set_reference_state(self._samplers[index], start)
+            # The AMP history before the start is the clip's own past frames.
+            past = start - self.control_period * np.arange(self.amp_history - 1, 0, -1)
+            history = [self.clip_amp_frame(index, t) for t in past]
         elif kind == "default":
             self._set_default_state(float(self.np_random.uniform(0.0, self.drop_height)))
         else:
             raise ValueError(f"options['init'] must be 'reference' or 'default', not {kind!r}")
         self.init_kind = kind
+        self._place_objects()
         self._place_task()
         self._action_port.FixValue(context, self._standing_action())
         self.sim.simulator.Initialize()
-        amp = self._amp_port.Eval(context)
+        amp = self._amp_port.Eval(context).copy()
         self._history.clear()
-        for _ in range(self.amp_history):
-            self._history.append(amp.copy())
-        return self._observe(), self._info(terminated=False)
+        self._history.extend(history or [amp] * (self.amp_history - 1))
+        self._history.append(amp)
+        self._last = (self._observe(), self._info(terminated=False))
+        return self._last
 
     def step(self, action):
         start = time.perf_counter()
@@ -171,28 +186,49 @@ class DiagramEnv(gym.Env):
             raise ValueError(f"action must be {self.action_space.shape} finite numbers")
         self._action_port.FixValue(self._context, np.clip(action, -1.0, 1.0))
         target = self._context.get_time() + self.control_period
-        failed = None
-        tick = time.perf_counter()
         try:
+            tick = time.perf_counter()
             self._advance_to(target)
-        except RuntimeError as error:  # Drake reports solver failures this way
-            failed = str(error).splitlines()[0] if str(error) else type(error).__name__
-            log.warning("%s: simulation failed at t=%.3f s (%s); episode truncated", self.spec_id, target, failed)
-        self.timings.physics += time.perf_counter() - tick
-        tick = time.perf_counter()
-        observation = self._observe()
-        self.timings.observation += time.perf_counter() - tick
-        tick = time.perf_counter()
-        self._history.append(self._amp_port.Eval(self._context).copy())
-        self.timings.amp_observation += time.perf_counter() - tick
-        terminated = failed is None and self._fell()
-        info = self._info(terminated)
-        if failed is not None:
-            info["simulation_failure"] = failed
-        reward = self._task_reward(info)
+            self.timings.physics += time.perf_counter() - tick
+            tick = time.perf_counter()
+            observation = self._observe()
+            self.timings.observation += time.perf_counter() - tick
+            tick = time.perf_counter()
+            amp = self._amp_port.Eval(self._context).copy()
+            self.timings.amp_observation += time.perf_counter() - tick
+            if not (np.all(np.isfinite(observation)) and np.all(np.isfinite(amp))):
+                raise FloatingPointError("the state diverged (non-finite observation)")
+            self._history.append(amp)
+            terminated = self._fell()
+            info = self._info(terminated)
+            reward = self._task_reward(info)
+        except (RuntimeError, FloatingPointError) as error:  # Drake reports solver failures as RuntimeError
+            return self._truncate_after_failure(error, target)
+        self._last = (observation, info)
         self.timings.steps += 1
         self.timings.total += time.perf_counter() - start
-        return observation, float(reward), bool(terminated), failed is not None, info
+        return observation, float(reward), bool(terminated), False, info
+
+    def clip_amp_frame(self, clip_index: int, time_: float) -> np.ndarray:
+        """The AMP frame of reference clip `clip_index` at `time_` (clamped to
+        the clip), aligned as reference starts are; for the history at a
+        reference start and for the discriminators' demonstration frames."""
+        sim = self.sim
+        set_robot_state(
+            sim.plant, self._scratch_plant, sim.model, self.embodiment, self._samplers[clip_index], time_, align=True
+        )
+        state = sim.plant.GetPositionsAndVelocities(self._scratch_plant, sim.model)
+        observer = sim.systems["observation"]
+        observer.GetInputPort("state").FixValue(self._scratch_observer, state)
+        return observer.GetOutputPort("amp_observation").Eval(self._scratch_observer).copy()
+
+    def _truncate_after_failure(self, error: Exception, when: float):
+        """End the episode as truncated, returning the last good observation and info."""
+        reason = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        log.warning("%s: simulation failed at t=%.3f s (%s); episode truncated", self.spec_id, when, reason)
+        observation, info = self._last
+        info = dict(info, simulation_failure=reason)
+        return observation, 0.0, False, True, info
 
     # -- internals -------------------------------------------------------------
 
@@ -214,7 +250,14 @@ class DiagramEnv(gym.Env):
 
     def _set_reference_state(self, sampler: ReferenceMotionSource, time_: float) -> None:
         sim = self.sim
-        set_robot_state(sim.plant, self._plant_context, sim.model, self.embodiment, sampler, time=time_)
+        set_robot_state(sim.plant, self._plant_context, sim.model, self.embodiment, sampler, time_, align=True)
+
+    def _place_objects(self) -> None:
+        """Free objects back at their configured poses (tasks then draw theirs)."""
+        plant, objects = self.sim.plant, self.sim.objects
+        for obj in self._objects:
+            body = plant.GetBodyByName(obj.kind, objects[obj.instance_name])
+            plant.SetFreeBodyPose(self._plant_context, body, object_pose(obj))
 
     def _observe(self) -> np.ndarray:
         robot = self._observation_port.Eval(self._context)

@@ -56,6 +56,8 @@ def library_clip_cached(motion: str, embodiment: Embodiment) -> MotionClip:
 
 def reference_clips(embodiment: Embodiment, motions: Iterable[str] | None = None) -> list[MotionClip]:
     """The clips for `motions` (default: the whole generated library)."""
+    if isinstance(motions, str | Path):
+        motions = [str(motions)]
     clips = []
     for motion in MOTIONS if motions is None else motions:
         if motion in MOTIONS:
