@@ -48,8 +48,6 @@ class _ObjectTaskEnv(DiagramEnv):
         emb = embodiments.load(robot, hands)
         clips = reference_clips(emb, motions)
         self._object = obj
-        # s_I reads the contact results every step: sampling them with the step is cheaper.
-        options.setdefault("sampled_output_ports", True)
         super().__init__(clips=clips, objects=self._scene_objects(obj), embodiment=emb, **options)
         sim = self.sim
         self._object_body = sim.plant.GetBodyByName(obj.kind, sim.objects[obj.instance_name])
