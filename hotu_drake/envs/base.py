@@ -8,8 +8,9 @@ and its PD, then reads the ObservationSystem's outputs.
 
 Every step's `info` carries `amp`: per functional part, the AMP
 observations of the last K frames (oldest first, shape (K, d_part)), for
-the per-part discriminators; a Drake failure during the step (the contact
-solver not converging) ends the episode as truncated with a logged warning.
+the per-part discriminators. A Drake failure during the step (the contact
+solver not converging) or a diverged state ends the episode as truncated,
+with a logged warning and the last good observation.
 """
 
 import logging
