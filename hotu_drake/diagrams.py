@@ -123,23 +123,11 @@ StandingSimulation = Simulation
 
 def reference_clip(scenario: Scenario, emb: Embodiment) -> MotionClip | None:
     """The scenario's reference motion on its embodiment, or None."""
-    motion = scenario.reference.motion
-    if not motion:
+    if not scenario.reference.motion:
         return None
-    from hotu_drake.motion.library import MOTIONS
+    from hotu_drake.retarget.references import reference_clip as load_reference
 
-    if motion in MOTIONS:
-        from hotu_drake.retarget.pipeline import library_clip
-
-        clip = library_clip(motion, emb.name, emb.hands)
-    else:
-        path = scenario.resolve(motion)
-        if path.suffix != ".npz" or not path.is_file():
-            raise UserError(f"{path}: reference must be a library motion ({', '.join(MOTIONS)}) or a .npz clip")
-        clip = MotionClip.load(path)
-    if list(clip.joint_names) != list(emb.joint_names):
-        raise UserError(f"{motion}: the reference clip is for '{clip.embodiment}', not {emb.name} hands={emb.hands}")
-    return clip
+    return load_reference(scenario.reference.motion, emb, scenario.base_dir or None)
 
 
 def build_simulation(

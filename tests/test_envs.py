@@ -9,8 +9,8 @@ from gymnasium.utils.env_checker import check_env
 
 import hotu_drake.envs  # noqa: F401  (registers the ids)
 from hotu_drake.cli import UserError
-from hotu_drake.envs.motions import reference_clips
 from hotu_drake.motion.library import MOTIONS
+from hotu_drake.retarget.references import reference_clips
 from hotu_drake.systems.observation import ROOT_FEATURES
 
 WALK = ["walk"]
@@ -145,7 +145,7 @@ def test_bad_actions_and_motions_are_refused(h1_env):
 
 
 def test_default_motions_are_the_whole_library(monkeypatch):
-    import hotu_drake.envs.motions as motions
+    import hotu_drake.retarget.references as motions
     from hotu_drake import embodiment
 
     h1 = embodiment.load("h1", "none")

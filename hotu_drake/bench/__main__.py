@@ -72,7 +72,7 @@ def _diagram(args, names) -> int:
 
 def _env(args) -> int:
     from hotu_drake.bench import env as bench_env
-    from hotu_drake.envs.motions import reference_clips
+    from hotu_drake.retarget.references import reference_clips
 
     if args.envs < 1 or args.envs > 64:
         raise UserError("--envs must be between 1 and 64")

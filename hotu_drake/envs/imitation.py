@@ -22,7 +22,7 @@ from collections.abc import Sequence
 
 from hotu_drake import embodiment as embodiments
 from hotu_drake.envs.base import DiagramEnv
-from hotu_drake.envs.motions import reference_clips
+from hotu_drake.retarget.references import reference_clips
 
 
 class ImitationEnv(DiagramEnv):

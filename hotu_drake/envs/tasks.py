@@ -22,7 +22,7 @@ from pydrake.math import RigidTransform, RollPitchYaw
 
 from hotu_drake import embodiment as embodiments
 from hotu_drake.envs.base import DiagramEnv
-from hotu_drake.envs.motions import reference_clips
+from hotu_drake.retarget.references import reference_clips
 from hotu_drake.scenario import SceneObject
 from hotu_drake.systems.observation import heading_rotation
 

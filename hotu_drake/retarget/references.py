@@ -1,4 +1,4 @@
-"""The reference clips an environment imitates, on its embodiment.
+"""Reference clips on an embodiment, for scenarios to track and environments to imitate.
 
 A motion is a name from the generated library (retargeted human -> UDH ->
 robot) or a path to a `.npz` clip of the embodiment. Retargeting a library
@@ -17,6 +17,7 @@ from hotu_drake.cli import UserError
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.motion.clip import ClipFormatError, MotionClip
 from hotu_drake.motion.library import MOTIONS
+from hotu_drake.retarget.pipeline import library_clip
 
 _PACKAGE = Path(__file__).resolve().parent.parent
 
@@ -38,8 +39,6 @@ def _code_key() -> str:
 
 def library_clip_cached(motion: str, embodiment: Embodiment) -> MotionClip:
     """`motion` of the generated library on `embodiment`, from the disk cache if there."""
-    from hotu_drake.retarget.pipeline import library_clip
-
     path = cache_dir() / "clips" / _code_key() / f"{embodiment.name}_{embodiment.hands}_{motion}.npz"
     if path.is_file():
         try:
@@ -54,22 +53,28 @@ def library_clip_cached(motion: str, embodiment: Embodiment) -> MotionClip:
     return clip
 
 
-def reference_clips(embodiment: Embodiment, motions: Iterable[str] | None = None) -> list[MotionClip]:
+def reference_clip(motion: str, embodiment: Embodiment, base_dir: str | Path | None = None) -> MotionClip:
+    """One motion on `embodiment`; a relative clip path is taken from `base_dir`.
+    Raises `UserError` for a name that is neither, or a clip of another embodiment."""
+    if motion in MOTIONS:
+        clip = library_clip_cached(motion, embodiment)
+    else:
+        path = Path(motion).expanduser()
+        if base_dir is not None and not path.is_absolute():
+            path = Path(base_dir) / path
+        if path.suffix != ".npz" or not path.is_file():
+            raise UserError(f"{path}: not a library motion ({', '.join(MOTIONS)}) nor a .npz clip")
+        clip = MotionClip.load(path)
+    if list(clip.joint_names) != list(embodiment.joint_names):
+        raise UserError(f"{motion}: a clip for '{clip.embodiment}', not {embodiment.name} hands={embodiment.hands}")
+    return clip
+
+
+def reference_clips(embodiment: Embodiment, motions: Iterable[str] | str | None = None) -> list[MotionClip]:
     """The clips for `motions` (default: the whole generated library)."""
     if isinstance(motions, str | Path):
         motions = [str(motions)]
-    clips = []
-    for motion in MOTIONS if motions is None else motions:
-        if motion in MOTIONS:
-            clip = library_clip_cached(motion, embodiment)
-        else:
-            path = Path(motion)
-            if path.suffix != ".npz" or not path.is_file():
-                raise UserError(f"{motion}: not a library motion ({', '.join(MOTIONS)}) nor a .npz clip")
-            clip = MotionClip.load(path)
-        if list(clip.joint_names) != list(embodiment.joint_names):
-            raise UserError(f"{motion}: a clip for '{clip.embodiment}', not {embodiment.name} hands={embodiment.hands}")
-        clips.append(clip)
+    clips = [reference_clip(motion, embodiment) for motion in (MOTIONS if motions is None else motions)]
     if not clips:
         raise UserError("motions: give at least one motion")
     return clips
