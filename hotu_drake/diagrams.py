@@ -80,6 +80,39 @@ def actuated_joint_order(plant: MultibodyPlant, model) -> list[str]:
     return [plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices(model)]
 
 
+FEET = ("left_foot", "right_foot")
+
+
+class FloorContact:
+    """Whether a body of the robot other than its feet touches the floor.
+
+    Checked on geometry (a floor geometry penetrating one of those bodies',
+    the condition for point contact), so it costs a collision query, not a
+    contact solve."""
+
+    def __init__(self, plant: MultibodyPlant, model, embodiment: Embodiment):
+        feet = {
+            plant.GetBodyByName(embodiment.key_bodies[r], model).index() for r in FEET if r in embodiment.key_bodies
+        }
+        self._plant = plant
+        self._floor = set(plant.GetCollisionGeometriesForBody(plant.world_body()))
+        self._body = {
+            geometry
+            for index in plant.GetBodyIndices(model)
+            if index not in feet
+            for geometry in plant.GetCollisionGeometriesForBody(plant.get_body(index))
+        }
+
+    def __call__(self, plant_context) -> bool:
+        query = self._plant.get_geometry_query_input_port().Eval(plant_context)
+        floor, body = self._floor, self._body
+        for pair in query.ComputePointPairPenetration():
+            a, b = pair.id_A, pair.id_B
+            if (a in floor and b in body) or (b in floor and a in body):
+                return True
+        return False
+
+
 @dataclass
 class Simulation:
     """A built diagram, its simulator and handles to its parts."""
@@ -93,11 +126,6 @@ class Simulation:
     systems: dict = field(default_factory=dict)  # name -> system added to the diagram
     objects: dict = field(default_factory=dict)  # object name -> model instance
     reference: MotionClip | None = None
-
-    @property
-    def extras(self) -> dict:
-        """The added systems by name (older name of `systems`)."""
-        return self.systems
 
     def plant_context(self):
         return self.plant.GetMyContextFromRoot(self.simulator.get_context())
@@ -116,9 +144,6 @@ class Simulation:
     def output(self, name: str) -> np.ndarray:
         """Evaluate one of the diagram's exported vector outputs (e.g. `observation`)."""
         return self.diagram.GetOutputPort(name).Eval(self.simulator.get_context())
-
-
-StandingSimulation = Simulation
 
 
 def reference_clip(scenario: Scenario, emb: Embodiment) -> MotionClip | None:
@@ -208,10 +233,7 @@ def build_simulation(
     if clip is not None and scenario.initial.reference_time >= 0:
         sampler = systems.get("reference") or _reference_source(scenario, emb, clip, fixed)
     set_robot_state(plant, plant_context, model, emb, sampler, drop_height=scenario.initial.drop_height, fixed=fixed)
-    for obj in scenario.objects:
-        if not obj.fixed and not obj.kind == "target_marker":
-            body = plant.GetBodyByName(obj.kind, objects[obj.instance_name])
-            plant.SetFreeBodyPose(plant_context, body, object_pose(obj))
+    place_objects(plant, plant_context, objects, scenario.objects)
     if cubes:
         place_perturbation_cubes(plant, plant_context, cubes, scenario.perturbations)
     simulator.Initialize()
@@ -329,7 +351,7 @@ def _add_interaction_graph(w: _Wiring, scenario: Scenario, objects: dict) -> Non
     task = [o for o in scenario.objects if _is_task_object(o)]
     if not task or not {"left_hand", "right_hand", "pelvis"} <= emb.key_bodies.keys():
         return
-    bodies = {o.instance_name: plant.GetBodyByName(o.kind, objects[o.instance_name]) for o in task}
+    bodies = {o.instance_name: object_body(plant, objects, o) for o in task}
     graph = w.add("interaction_graph", InteractionGraphSystem(plant, w.model, emb, bodies), keep=True)
     goals = np.ravel([o.target or o.position for o in task]).astype(float)
     targets = w.add("object_targets", ConstantVectorSource(goals), keep=True)
@@ -350,7 +372,7 @@ def _add_applied_forces(w: _Wiring, scenario: Scenario, objects: dict, cubes: li
         thrower = w.add("perturbation", Perturbation(plant, cubes, scenario.perturbations, torso, time_step), keep=True)
         builder.Connect(plant.get_body_poses_output_port(), thrower.GetInputPort("body_poses"))
         sources.append(thrower.GetOutputPort("spatial_forces"))
-    held = [plant.GetBodyByName(o.kind, objects[o.instance_name]) for o in scenario.objects if o.held]
+    held = [object_body(plant, objects, o) for o in scenario.objects if o.held]
     if held:
         period = 1.0 / scenario.policy.control_rate
         holder = w.add("object_holder", ObjectHolder(plant, w.model, held, period), keep=True)
@@ -401,6 +423,19 @@ def _is_task_object(obj) -> bool:
 def object_pose(obj: SceneObject) -> RigidTransform:
     """Where a scene object starts (or is welded): its position, turned by its yaw."""
     return RigidTransform(RollPitchYaw(0.0, 0.0, obj.yaw), np.asarray(obj.position, dtype=float))
+
+
+def object_body(plant: MultibodyPlant, objects: dict, obj: SceneObject):
+    """The body of a scene object (`objects`: instance name -> model instance)."""
+    return plant.GetBodyByName(obj.kind, objects[obj.instance_name])
+
+
+def place_objects(plant: MultibodyPlant, plant_context, objects: dict, scene_objects: list[SceneObject]) -> None:
+    """Put every free scene object at its start pose."""
+    for obj in scene_objects:
+        if not obj.fixed and obj.kind != "target_marker":
+            body = object_body(plant, objects, obj)
+            plant.SetFreeBodyPose(plant_context, body, object_pose(obj))
 
 
 def _add_objects(plant: MultibodyPlant, scenario: Scenario) -> dict:

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from hotu_drake.cli import ArgumentParser, positive_float, run_cli
-from hotu_drake.diagrams import Simulation, build_simulation
+from hotu_drake.diagrams import FloorContact, build_simulation
 from hotu_drake.io import write_text_atomic
 from hotu_drake.resources import scenario_path
 from hotu_drake.scenario import Scenario, load_scenario
@@ -34,30 +34,11 @@ def state_checksum(values: np.ndarray) -> str:
     return hashlib.sha256(rounded.tobytes()).hexdigest()[:16]
 
 
-def _touching_floor(sim: Simulation, allowed: set) -> bool:
-    plant = sim.plant
-    context = plant.GetMyContextFromRoot(sim.simulator.get_context())
-    contacts = plant.get_contact_results_output_port().Eval(context)
-    world = plant.world_body().index()
-    for i in range(contacts.num_point_pair_contacts()):
-        info = contacts.point_pair_contact_info(i)
-        pair = {info.bodyA_index(), info.bodyB_index()}
-        if world in pair:
-            other = (pair - {world}).pop()
-            if plant.get_body(other).model_instance() == sim.model and other not in allowed:
-                return True
-    return False
-
-
 def run(scenario: Scenario, duration: float | None = None, meshcat=None) -> dict:
     """Simulate a scenario; the figures `simulate` prints."""
     sim = build_simulation(scenario, meshcat=meshcat)
     emb, plant, context = sim.embodiment, sim.plant, sim.plant_context()
-    feet = {
-        plant.GetBodyByName(emb.key_bodies[r], sim.model).index()
-        for r in ("left_foot", "right_foot")
-        if r in emb.key_bodies
-    }
+    touching_floor = FloorContact(plant, sim.model, emb)
     floating = emb.floating_base and not scenario.fixed_base
     nominal = emb.standing_pelvis_height
     end = duration if duration is not None else scenario.duration
@@ -75,7 +56,7 @@ def run(scenario: Scenario, duration: float | None = None, meshcat=None) -> dict
         if floating:
             height = sim.pelvis_height()
             lowest = min(lowest, height)
-            fell = fell or height < 0.5 * nominal or _touching_floor(sim, feet)
+            fell = fell or height < 0.5 * nominal or touching_floor(context)
         if sim.reference is not None:
             reference = sim.output("reference_joint_positions")
             errors.append(np.fromiter(sim.joint_positions().values(), float) - reference)

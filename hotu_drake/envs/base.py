@@ -22,14 +22,12 @@ import gymnasium as gym
 import numpy as np
 
 from hotu_drake import embodiment as embodiments
-from hotu_drake.diagrams import Simulation, build_simulation, object_pose, set_robot_state
+from hotu_drake.diagrams import FloorContact, Simulation, build_simulation, place_objects, set_robot_state
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.scenario import InitialCondition, PlantSettings, PolicySettings, Scenario, SceneObject
 from hotu_drake.systems.reference import ReferenceMotionSource
 
 log = logging.getLogger("hotu_drake.envs")
-
-FEET = ("left_foot", "right_foot")
 
 
 @dataclass
@@ -106,22 +104,13 @@ class DiagramEnv(gym.Env):
         plant, model = sim.plant, sim.model
         self._root = plant.GetBodyByName(emb.spec.root.name, model)
         self._pelvis = plant.GetBodyByName(emb.key_bodies["pelvis"], model)
-        # Falling is checked on geometry (penetration with the floor), which
-        # costs a collision query, not a contact solve.
-        feet = {plant.GetBodyByName(emb.key_bodies[r], model).index() for r in FEET if r in emb.key_bodies}
-        self._floor = set(plant.GetCollisionGeometriesForBody(plant.world_body()))
-        self._not_on_floor = {
-            geometry
-            for index in plant.GetBodyIndices(model)
-            if index not in feet
-            for geometry in plant.GetCollisionGeometriesForBody(plant.get_body(index))
-        }
+        self._floor_contact = FloorContact(plant, model, emb)
         self._samplers = [ReferenceMotionSource(c, loop=False, floating_base=emb.floating_base) for c in self.clips]
         n = len(emb.joint_names)
         self.action_space = gym.spaces.Box(-1.0, 1.0, (n,), np.float32)
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (self._observation_size(),), np.float32)
         self._history: deque = deque(maxlen=amp_history)
-        self._objects = [o for o in scenario.objects if not o.fixed and o.kind != "target_marker"]
+        self._scene_objects = scenario.objects
         # A scratch context of the observation system, for AMP frames of clip states.
         self._scratch_plant = sim.plant.CreateDefaultContext()
         self._scratch_observer = observer.CreateDefaultContext()
@@ -255,10 +244,7 @@ class DiagramEnv(gym.Env):
 
     def _place_objects(self) -> None:
         """Free objects back at their configured poses (tasks then draw theirs)."""
-        plant, objects = self.sim.plant, self.sim.objects
-        for obj in self._objects:
-            body = plant.GetBodyByName(obj.kind, objects[obj.instance_name])
-            plant.SetFreeBodyPose(self._plant_context, body, object_pose(obj))
+        place_objects(self.sim.plant, self._plant_context, self.sim.objects, self._scene_objects)
 
     def _observe(self) -> np.ndarray:
         robot = self._observation_port.Eval(self._context)
@@ -277,10 +263,4 @@ class DiagramEnv(gym.Env):
             return False
         if self.pelvis_height() < self.termination_height:
             return True
-        query = self.sim.plant.get_geometry_query_input_port().Eval(self._plant_context)
-        floor, body = self._floor, self._not_on_floor
-        for pair in query.ComputePointPairPenetration():
-            a, b = pair.id_A, pair.id_B
-            if (a in floor and b in body) or (b in floor and a in body):
-                return True
-        return False
+        return self._floor_contact(self._plant_context)

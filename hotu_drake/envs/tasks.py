@@ -21,6 +21,7 @@ import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw
 
 from hotu_drake import embodiment as embodiments
+from hotu_drake.diagrams import object_body
 from hotu_drake.envs.base import DiagramEnv
 from hotu_drake.retarget.references import reference_clips
 from hotu_drake.scenario import SceneObject
@@ -50,7 +51,7 @@ class _ObjectTaskEnv(DiagramEnv):
         self._object = obj
         super().__init__(clips=clips, objects=self._scene_objects(obj), embodiment=emb, **options)
         sim = self.sim
-        self._object_body = sim.plant.GetBodyByName(obj.kind, sim.objects[obj.instance_name])
+        self._object_body = object_body(sim.plant, sim.objects, obj)
         self._hand_bodies = [sim.plant.GetBodyByName(emb.key_bodies[r], sim.model) for r in HANDS]
         self._graph_port = sim.diagram.GetOutputPort("interaction")
         self._targets = sim.systems["object_targets"]
