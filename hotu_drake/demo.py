@@ -58,22 +58,21 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def write_perturbation_replays(out: Path) -> list[Path]:
-    """Run `perturb_<robot>.yaml` for every legged robot, recording Meshcat."""
+    """Run the `perturb_<robot>` scenario of every legged robot, recording Meshcat."""
     from pydrake.geometry import StartMeshcat
 
     from hotu_drake.io import write_text_atomic
-    from hotu_drake.resources import scenario_path
-    from hotu_drake.scenario import load_scenario
+    from hotu_drake.scenario import load_scenario, shipped_scenarios
     from hotu_drake.simulate import run
 
     meshcat = StartMeshcat()
     written = []
+    shipped = shipped_scenarios()
     for name in embodiment.EMBODIMENT_NAMES:
-        path = scenario_path(f"perturb_{name}")
-        if not path.is_file():
+        if f"perturb_{name}" not in shipped:
             continue
         meshcat.Delete()
-        figures = run(load_scenario(path), meshcat=meshcat)
+        figures = run(load_scenario(f"perturb_{name}"), meshcat=meshcat)
         written.append(write_text_atomic(out / f"perturb_{name}.html", meshcat.StaticHtml()))
         outcome = "fell" if figures["fell"] else "stayed up"
         print(f"wrote {written[-1]}: cubes thrown at {name}, which {outcome}")

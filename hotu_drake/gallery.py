@@ -13,8 +13,8 @@ from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.framework import DiagramBuilder
 
 from hotu_drake import embodiment
-from hotu_drake.diagrams import actuated_joint_order
 from hotu_drake.io import write_text_atomic
+from hotu_drake.plant import actuated_joint_order
 
 SPACING = 1.6  # metres between neighbours, along y
 

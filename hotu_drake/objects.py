@@ -1,16 +1,187 @@
-"""Task objects of the method: box, drill, table and a target marker (models/objects/)."""
+"""Task objects of the method: box, drill, table and a target marker.
 
-from pydrake.math import RigidTransform
+The one home of their shapes and sizes: `OBJECT_MODELS` describes each
+object (mass, inertia, primitive shapes); `models/objects/*.sdf` are
+generated from it (`python -m hotu_drake.models generate`), and the motion
+library, the replays and the task environments read the same numbers.
+
+A scenario places objects with `SceneObject`s; `add_scene_objects` adds
+them to a plant (welded or free, with a marker at each target) and
+`place_objects` puts the free ones at their start poses.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 
+from hotu_drake.embodiment.formats.common import fmt, vec
+from hotu_drake.embodiment.formats.sdf import geometry_sdf
+from hotu_drake.embodiment.spec import Geometry, box, cylinder
 from hotu_drake.resources import models_dir
 
-OBJECTS: tuple[str, ...] = ("box", "drill", "table", "target_marker")
+
+@dataclass(frozen=True)
+class Shape:
+    """A named primitive of an object (in the object's frame), its colour,
+    and whether it collides or is only seen."""
+
+    name: str
+    geometry: Geometry
+    color: tuple[float, float, float, float] = (0.72, 0.52, 0.30, 1.0)
+    collision: bool = True
+
+    @property
+    def half_height(self) -> float:
+        """Half the shape's extent along z (an upright box or cylinder, or a sphere)."""
+        g = self.geometry
+        return g.size[0] if g.shape == "sphere" else g.size[-1] / 2
+
+    @property
+    def top(self) -> float:
+        """Height of the shape's top in the object's frame."""
+        return self.geometry.position[2] + self.half_height
+
+    @property
+    def bottom(self) -> float:
+        """Height of the shape's bottom in the object's frame."""
+        return self.geometry.position[2] - self.half_height
+
+
+@dataclass(frozen=True)
+class ObjectModel:
+    """One object: what it is, its mass properties and its shapes."""
+
+    name: str
+    description: str
+    mass: float
+    inertia: tuple[float, float, float]  # ixx, iyy, izz about the centre of mass
+    shapes: tuple[Shape, ...]
+    center_of_mass: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def shape(self, name: str) -> Shape:
+        return next(s for s in self.shapes if s.name == name)
+
+
+_DARK = (0.15, 0.15, 0.15, 1.0)
+_UP = (0.0, 0.0, 1.0)
+BOX_SIZE = 0.3  # m, edge of the carry task's cube
+OBJECT_MODELS: dict[str, ObjectModel] = {
+    "box": ObjectModel(
+        "box",
+        f"The {BOX_SIZE:g} m, 2 kg box of the method's carry task. Pose = centre, axes along the faces.",
+        2.0,
+        (0.03, 0.03, 0.03),
+        (Shape("body", box((BOX_SIZE,) * 3)),),
+    ),
+    "drill": ObjectModel(
+        "drill",
+        "A cordless power drill, 1.3 kg, standing on its battery. Pose = centre of the grip; "
+        "x along the barrel, z up the handle.",
+        1.3,
+        (0.004, 0.006, 0.004),
+        (
+            Shape("grip", cylinder(0.02, 0.12, (0.0, 0.0, 0.0), _UP), _DARK),
+            Shape("barrel", box((0.2, 0.05, 0.06), (0.05, 0.0, 0.08)), (0.9, 0.6, 0.1, 1.0)),
+            Shape("battery", box((0.11, 0.07, 0.03), (0.02, 0.0, -0.075)), _DARK),
+        ),
+        center_of_mass=(0.03, 0.0, 0.04),
+    ),
+    "table": ObjectModel(
+        "table",
+        "A 0.6 x 0.8 m table, top 0.72 m high, welded where it is placed. Frame at the floor below the top's centre.",
+        15.0,
+        (1.0, 1.0, 1.0),
+        (
+            Shape("top", box((0.6, 0.8, 0.04), (0.0, 0.0, 0.70))),
+            Shape("leg", box((0.08, 0.08, 0.68), (0.0, 0.0, 0.34)), (0.5, 0.5, 0.5, 1.0), collision=False),
+        ),
+        center_of_mass=(0.0, 0.0, 0.5),
+    ),
+    "target_marker": ObjectModel(
+        "target_marker",
+        "A visual-only marker of an object's target pose (no collision).",
+        0.01,
+        (1e-5, 1e-5, 1e-5),
+        (Shape("body", box((BOX_SIZE,) * 3), (0.1, 0.8, 0.2, 0.3), collision=False),),
+    ),
+}
+OBJECTS: tuple[str, ...] = tuple(OBJECT_MODELS)
+TABLE_TOP = OBJECT_MODELS["table"].shape("top").top  # m above the floor
+DRILL_BASE = -OBJECT_MODELS["drill"].shape("battery").bottom  # m from the grip centre down to the battery's bottom
+
+
+def object_sdf(name: str) -> str:
+    """The SDF text of object `name` (what `models/objects/<name>.sdf` holds)."""
+    model = OBJECT_MODELS[name]
+    ixx, iyy, izz = model.inertia
+    lines = [
+        '<?xml version="1.0"?>',
+        f"<!-- {model.description} -->",
+        '<sdf version="1.9">',
+        f'  <model name="{name}">',
+        f'    <link name="{name}">',
+        "      <inertial>",
+        f"        <pose>{vec(model.center_of_mass)} 0 0 0</pose>",
+        f"        <mass>{fmt(model.mass)}</mass>",
+        f"        <inertia><ixx>{fmt(ixx)}</ixx><iyy>{fmt(iyy)}</iyy><izz>{fmt(izz)}</izz>"
+        "<ixy>0</ixy><ixz>0</ixz><iyz>0</iyz></inertia>",
+        "      </inertial>",
+    ]
+    for kind in ("visual", "collision"):
+        for s in model.shapes:
+            if kind == "visual" or s.collision:
+                g = s.geometry
+                lines += [
+                    f'      <{kind} name="{s.name}">',
+                    f"        <pose>{vec(g.position)} {vec(g.rpy)}</pose>",
+                    f"        <geometry>{geometry_sdf(g)}</geometry>",
+                ]
+                if kind == "visual":
+                    lines.append(f"        <material><diffuse>{vec(s.color)}</diffuse></material>")
+                lines.append(f"      </{kind}>")
+    lines += ["    </link>", "  </model>", "</sdf>", ""]
+    return "\n".join(lines)
+
+
+@dataclass
+class SceneObject:
+    """A task object (box, drill, table or target_marker) at `position`
+    with `yaw` (rad). `fixed` welds it to the world; `held` keeps a free
+    object floating at its start until the robot first touches it (the
+    method's box task). A `target` (3-D) adds a target marker there and is
+    the object's goal in the interaction graph."""
+
+    kind: str = "box"
+    name: str = ""
+    position: list[float] = field(default_factory=lambda: [0.6, 0.0, 0.8])
+    yaw: float = 0.0
+    fixed: bool = False
+    held: bool = False
+    target: list[float] = field(default_factory=list)
+
+    @property
+    def instance_name(self) -> str:
+        return self.name or self.kind
+
+    @property
+    def is_task_object(self) -> bool:
+        """A free box or drill: what the interaction graph is about."""
+        return self.kind in ("box", "drill") and not self.fixed
+
+    @property
+    def is_welded(self) -> bool:
+        return self.fixed or self.kind == "target_marker"
+
+    def pose(self) -> RigidTransform:
+        """Where the object starts (or is welded): its position, turned by its yaw."""
+        return RigidTransform(RollPitchYaw(0.0, 0.0, self.yaw), np.asarray(self.position, dtype=float))
 
 
 def add_object(plant: MultibodyPlant, name: str, instance_name: str | None = None, weld: RigidTransform | None = None):
-    """Add a task object to a plant (welded at `weld` if given, else free)."""
+    """Add a task object to a plant (welded at `weld` if given, else free); returns its model instance."""
     if name not in OBJECTS:
         raise ValueError(f"unknown object {name!r}; choose from {', '.join(OBJECTS)}")
     parser = Parser(plant, instance_name) if instance_name else Parser(plant)
@@ -18,3 +189,29 @@ def add_object(plant: MultibodyPlant, name: str, instance_name: str | None = Non
     if weld is not None:
         plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(name, model), weld)
     return model
+
+
+def add_scene_objects(plant: MultibodyPlant, scene_objects: list[SceneObject]) -> dict:
+    """Add a scenario's objects (and a marker at each target) before `Finalize`;
+    returns instance name -> model instance."""
+    objects = {}
+    for obj in scene_objects:
+        weld = obj.pose() if obj.is_welded else None
+        objects[obj.instance_name] = add_object(plant, obj.kind, obj.instance_name, weld=weld)
+        if obj.target:
+            marker = f"{obj.instance_name}_target"
+            target = RigidTransform(np.asarray(obj.target, dtype=float))
+            objects[marker] = add_object(plant, "target_marker", marker, weld=target)
+    return objects
+
+
+def object_body(plant: MultibodyPlant, objects: dict, obj: SceneObject):
+    """The body of a scene object (`objects`: instance name -> model instance)."""
+    return plant.GetBodyByName(obj.kind, objects[obj.instance_name])
+
+
+def place_objects(plant: MultibodyPlant, plant_context, objects: dict, scene_objects: list[SceneObject]) -> None:
+    """Put every free scene object at its start pose."""
+    for obj in scene_objects:
+        if not obj.is_welded:
+            plant.SetFreeBodyPose(plant_context, object_body(plant, objects, obj), obj.pose())

@@ -24,7 +24,7 @@ def models_dir() -> Path:
 
 
 def systems_dir() -> Path:
-    """The folder of scenario YAML files."""
+    """The folder of scenario YAML files (`scenario.shipped_scenarios` names them)."""
     return _find("systems")
 
 
@@ -33,9 +33,3 @@ def model_path(name: str, hands: str, fmt: str) -> Path:
     from hotu_drake.embodiment.embodiment import EXPORT_SUFFIX
 
     return models_dir() / name / f"{name}_hands_{hands}{EXPORT_SUFFIX[fmt]}"
-
-
-def scenario_path(name: str) -> Path:
-    """Path of a shipped scenario, by file stem or file name."""
-    stem = name[:-5] if name.endswith(".yaml") else name
-    return systems_dir() / f"{stem}.yaml"

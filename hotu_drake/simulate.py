@@ -1,6 +1,9 @@
-"""Run a scenario file.
+"""Run a scenario.
 
-    python -m hotu_drake.simulate SCENARIO.yaml [--duration S] [--html OUT.html] [--json]
+    python -m hotu_drake.simulate SCENARIO [--name NAME] [--duration S] [--html OUT.html] [--json]
+
+SCENARIO is the name of a shipped scenario (`stand_h1`, see `--list`) or
+a scenario file (one scenario, or a catalogue with `--name`).
 
 Builds the scenario's diagram, simulates it and prints `realtime_factor`,
 `fell` (a body other than a foot touched the floor, or the pelvis dropped
@@ -20,10 +23,9 @@ from pathlib import Path
 import numpy as np
 
 from hotu_drake.cli import ArgumentParser, positive_float, run_cli
-from hotu_drake.diagrams import FloorContact, build_simulation
+from hotu_drake.diagrams import build_simulation
 from hotu_drake.io import write_text_atomic
-from hotu_drake.resources import scenario_path
-from hotu_drake.scenario import Scenario, load_scenario
+from hotu_drake.scenario import Scenario, load_scenario, shipped_scenarios
 
 CHUNK = 0.05  # s between checks of falls and torques
 
@@ -38,9 +40,9 @@ def run(scenario: Scenario, duration: float | None = None, meshcat=None) -> dict
     """Simulate a scenario; the figures `simulate` prints."""
     sim = build_simulation(scenario, meshcat=meshcat)
     emb, plant, context = sim.embodiment, sim.plant, sim.plant_context()
-    touching_floor = FloorContact(plant, sim.model, emb)
-    floating = emb.floating_base and not scenario.fixed_base
-    nominal = emb.standing_pelvis_height
+    fall = sim.fall_check()
+    floating = fall.can_fall
+    tracking = sim.diagram.HasOutputPort("reference_joint_positions")
     end = duration if duration is not None else scenario.duration
     fell, lowest, torque_ratio, wall, errors = False, np.inf, 0.0, 0.0, []
     if meshcat is not None:
@@ -54,10 +56,9 @@ def run(scenario: Scenario, duration: float | None = None, meshcat=None) -> dict
         torques = plant.get_net_actuation_output_port(sim.model).Eval(context)
         torque_ratio = max(torque_ratio, float(np.max(np.abs(torques) / emb.effort_limits)))
         if floating:
-            height = sim.pelvis_height()
-            lowest = min(lowest, height)
-            fell = fell or height < 0.5 * nominal or touching_floor(context)
-        if sim.reference is not None:
+            lowest = min(lowest, fall.pelvis_height(context))
+            fell = fell or fall(context)
+        if tracking:
             reference = sim.output("reference_joint_positions")
             errors.append(np.fromiter(sim.joint_positions().values(), float) - reference)
     if meshcat is not None:
@@ -79,22 +80,29 @@ def run(scenario: Scenario, duration: float | None = None, meshcat=None) -> dict
 
 def main(argv: list[str] | None = None) -> int:
     parser = ArgumentParser(prog="python -m hotu_drake.simulate", description="Build and run a scenario file.")
-    parser.add_argument("scenario", help="a scenario YAML file, or the name of a shipped one (e.g. stand_h1)")
+    parser.add_argument(
+        "scenario", nargs="?", help="the name of a shipped scenario (e.g. stand_h1) or a scenario YAML file"
+    )
+    parser.add_argument("--name", help="the scenario to run from a catalogue file (several named scenarios)")
+    parser.add_argument("--list", action="store_true", help="list the shipped scenarios and exit")
     parser.add_argument("--duration", type=positive_float, help="simulated seconds (default: the scenario's)")
     parser.add_argument("--html", help="write a Meshcat replay of the run")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
     args = parser.parse_args(argv)
-    path = Path(args.scenario)
-    if not path.exists() and not path.suffix:
-        path = scenario_path(args.scenario)
-    scenario = load_scenario(path)
+    if args.list:
+        for name, path in shipped_scenarios().items():
+            print(f"{name:22s} {path.name}")
+        return 0
+    if not args.scenario:
+        parser.error("give a scenario (a shipped name or a file)")
+    scenario = load_scenario(args.scenario, args.name)
     meshcat = None
     if args.html:
         from pydrake.geometry import StartMeshcat
 
         meshcat = StartMeshcat()
     figures = run(scenario, args.duration, meshcat)
-    figures["scenario"] = path.stem
+    figures["scenario"] = args.name or Path(args.scenario).stem
     if args.html:
         write_text_atomic(args.html, meshcat.StaticHtml())
     if args.json:

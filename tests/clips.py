@@ -4,7 +4,7 @@ import numpy as np
 
 from hotu_drake import embodiment
 from hotu_drake.motion.clip import MotionClip
-from hotu_drake.motion.rotations import matrix_to_quat
+from hotu_drake.rotations import matrix_to_quat
 
 
 def udh_test_clip(hands: str = "none", frames: int = 240, fps: float = 120.0, seed: int = 0) -> MotionClip:

@@ -17,6 +17,15 @@ os.environ.setdefault("HOTU_DRAKE_CACHE", tempfile.mkdtemp(prefix="hotu_drake_te
 
 
 @pytest.fixture
+def mujoco(tmp_path, monkeypatch):
+    """MuJoCo, run in a temporary working directory (it writes MUJOCO_LOG.TXT
+    into the current one when a simulation goes unstable); skips without it."""
+    module = pytest.importorskip("mujoco")
+    monkeypatch.chdir(tmp_path)
+    return module
+
+
+@pytest.fixture
 def drake_warnings(caplog):
     """Collect Drake's log messages at warning level and above."""
     caplog.set_level("WARNING", logger="drake")

@@ -18,9 +18,9 @@ from hotu_drake.motion.bvh import (
 )
 from hotu_drake.motion.clip import ClipFormatError, MotionClip
 from hotu_drake.motion.human import REQUIRED_LANDMARKS, landmarks_of
-from hotu_drake.motion.rotations import matrix_to_quat
 from hotu_drake.motion.skeleton_maps import JointNames, best_family
 from hotu_drake.motion.udh_skeleton import udh_landmarks
+from hotu_drake.rotations import matrix_to_quat
 from tests.conftest import SHARED
 
 CMU_CLIP = SHARED / "data" / "cmu" / "01_01.bvh"

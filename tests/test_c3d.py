@@ -6,21 +6,13 @@ import numpy as np
 import pytest
 
 from hotu_drake.embodiment import load
-from hotu_drake.motion.c3d import (
-    PLUG_IN_GAIT_MARKERS,
-    _up_rotation,
-    load_c3d_clip,
-    load_marker_set,
-    markers_to_landmarks,
-    read_c3d,
-    udh_markers,
-    write_c3d,
-)
+from hotu_drake.motion.c3d import _up_rotation, load_c3d_clip, read_c3d, write_c3d
 from hotu_drake.motion.clip import ClipFormatError, MotionClip
 from hotu_drake.motion.human import REQUIRED_LANDMARKS
-from hotu_drake.motion.rotations import angular_velocity, finite_difference, quat_multiply
+from hotu_drake.motion.marker_sets import PLUG_IN_GAIT_MARKERS, load_marker_set, markers_to_landmarks, udh_markers
 from hotu_drake.motion.udh_skeleton import udh_landmarks
 from hotu_drake.retarget.marker_fit import fit_udh_to_markers, marker_residuals
+from hotu_drake.rotations import angular_velocity, finite_difference, quat_multiply
 
 FPS = 30.0
 FRAMES = 40
@@ -104,7 +96,7 @@ def test_skin_markers_sit_outside_the_bones(udh, clip, markers):
 
 
 def _root_rotation(clip):
-    from hotu_drake.motion.rotations import quat_to_matrix
+    from hotu_drake.rotations import quat_to_matrix
 
     return quat_to_matrix(clip.root_quaternion)
 

@@ -8,6 +8,7 @@ import pytest
 
 from hotu_drake import embodiment
 from hotu_drake.models.__main__ import main
+from hotu_drake.objects import OBJECTS
 from tests.test_embodiment_parts import EXPECTED
 
 
@@ -100,7 +101,7 @@ def test_bench_rejects_bad_input(args, message):
 
 def test_generate_writes_every_model_and_check_passes(tmp_path):
     assert main(["generate", "--out", str(tmp_path)]) == 0
-    assert len(list(tmp_path.rglob("*.*"))) == 6 * 2 * 3
+    assert len(list(tmp_path.rglob("*.*"))) == 6 * 2 * 3 + len(OBJECTS)  # robots x hands x formats, objects
     assert main(["generate", "--out", str(tmp_path), "--check"]) == 0
     (tmp_path / "h1" / "h1_hands_none.urdf").write_text("stale")
     assert main(["generate", "--out", str(tmp_path), "--check"]) == 1
@@ -130,11 +131,10 @@ def test_bench_diagram_reports_every_diagram_and_system_cost():
     assert not row["all_systems_fell"]
 
 
-def test_bench_env_reports_throughput_split_memory_and_the_mujoco_ratio():
-    pytest.importorskip("mujoco")
+def test_bench_env_reports_throughput_split_memory_and_the_mujoco_ratio(mujoco, tmp_path):
     command = ["env", "--robot", "bruce", "--envs", "1", "--seconds", "0.5", "--peer", "mujoco", "--json"]
     result = subprocess.run(
-        [sys.executable, "-m", "hotu_drake.bench", *command], capture_output=True, text=True, timeout=300
+        [sys.executable, "-m", "hotu_drake.bench", *command], capture_output=True, text=True, timeout=300, cwd=tmp_path
     )
     assert result.returncode == 0, result.stderr
     import json

@@ -24,7 +24,7 @@ def h1_env():
 
 
 def _standing(env) -> np.ndarray:
-    return env.unwrapped._standing_action().astype(np.float32)
+    return env.unwrapped.standing_action().astype(np.float32)
 
 
 def test_imitation_env_passes_the_gymnasium_checker(h1_env):
@@ -215,10 +215,11 @@ def test_full_hands_variant_has_finger_parts():
 
 
 def test_extra_objects_go_back_to_their_start_at_every_reset():
-    from hotu_drake.envs.base import DiagramEnv
-    from hotu_drake.scenario import SceneObject
+    from hotu_drake.envs.base import DiagramEnv, environment_scenario
+    from hotu_drake.objects import SceneObject
 
-    env = DiagramEnv(robot="bruce", objects=[SceneObject(kind="box", name="crate", position=[1.0, 0.5, 0.15])])
+    crate = SceneObject(kind="box", name="crate", position=[1.0, 0.5, 0.15])
+    env = DiagramEnv(environment_scenario(robot="bruce", objects=[crate]))
     for seed in (0, 1):
         env.reset(seed=seed)
         for _ in range(5):

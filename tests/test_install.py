@@ -12,7 +12,7 @@ import hotu_drake, hotu_drake.resources as r
 from hotu_drake.scenario import load_scenario
 assert r.models_dir().is_relative_to(r.Path(hotu_drake.__file__).parent), r.models_dir()
 assert r.model_path("h1", "none", "urdf").is_file()
-print(load_scenario(r.scenario_path("stand_h1")).embodiment, hotu_drake.__file__)
+print(load_scenario("stand_h1").embodiment, hotu_drake.__file__)
 """
 
 
@@ -27,7 +27,7 @@ def test_wheel_carries_models_and_systems(tmp_path):
     (wheel,) = (tmp_path / "dist").glob("hotu_drake-*.whl")
     names = zipfile.ZipFile(wheel).namelist()
     assert "hotu_drake/_data/models/h1/h1_hands_none.sdf" in names
-    assert "hotu_drake/_data/systems/stand_h1.yaml" in names
+    assert "hotu_drake/_data/systems/stand.yaml" in names
 
     site = tmp_path / "site"
     install = subprocess.run(

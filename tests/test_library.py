@@ -10,7 +10,7 @@ from hotu_drake import embodiment
 from hotu_drake.embodiment.kinematics import batch_link_poses
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.library import MOTIONS, generate, generate_library, generate_udh
-from hotu_drake.motion.rotations import angular_velocity, finite_difference, quat_to_matrix
+from hotu_drake.rotations import angular_velocity, finite_difference, quat_to_matrix
 
 FPS = 30.0
 SIDES = ("left", "right")

@@ -8,9 +8,9 @@ from pydrake.multibody.tree import JointActuatorIndex
 from pydrake.systems.framework import DiagramBuilder
 
 from hotu_drake import embodiment
-from hotu_drake.diagrams import PlantSettings
 from hotu_drake.models import generated_files
 from hotu_drake.resources import model_path, models_dir
+from hotu_drake.scenario import default_plant_config
 
 VARIANTS = [(n, h) for n in embodiment.EMBODIMENT_NAMES for h in embodiment.HANDS_VARIANTS]
 
@@ -18,7 +18,7 @@ VARIANTS = [(n, h) for n in embodiment.EMBODIMENT_NAMES for h in embodiment.HAND
 def _load(text: str, kind: str) -> MultibodyPlant:
     from pydrake.multibody.plant import AddMultibodyPlant
 
-    plant, _ = AddMultibodyPlant(PlantSettings().plant_config(), DiagramBuilder())
+    plant, _ = AddMultibodyPlant(default_plant_config(), DiagramBuilder())
     Parser(plant).AddModelsFromString(text, kind)
     plant.Finalize()
     return plant
@@ -46,8 +46,7 @@ def test_checked_in_model_loads_in_drake_without_warnings(name, hands, fmt, drak
 
 
 @pytest.mark.parametrize("name,hands", VARIANTS)
-def test_checked_in_mjcf_loads_in_mujoco(name, hands):
-    mujoco = pytest.importorskip("mujoco")
+def test_checked_in_mjcf_loads_in_mujoco(name, hands, mujoco):
     emb = embodiment.load(name, hands)
     model = mujoco.MjModel.from_xml_path(str(model_path(name, hands, "mjcf")))
     assert model.nu == len(emb.joint_names)
@@ -73,9 +72,8 @@ def test_mass_and_axes_agree_between_drake_and_the_spec():
 
 
 @pytest.mark.parametrize("name,hands", VARIANTS)
-def test_mjcf_stands_in_mujoco(name, hands):
+def test_mjcf_stands_in_mujoco(name, hands, mujoco):
     """The MJCF's servos hold the standing pose in MuJoCo as the PD does in Drake."""
-    mujoco = pytest.importorskip("mujoco")
     emb = embodiment.load(name, hands)
     spec = mujoco.MjSpec.from_file(str(model_path(name, hands, "mjcf")))
     spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[20, 20, 0.1])

@@ -9,9 +9,10 @@ import pytest
 
 from hotu_drake import embodiment
 from hotu_drake.motion.bvh import read_bvh, write_udh_bvh
-from hotu_drake.motion.c3d import load_c3d_clip, udh_markers, write_c3d
+from hotu_drake.motion.c3d import load_c3d_clip, write_c3d
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import human_clip
+from hotu_drake.motion.marker_sets import udh_markers
 from hotu_drake.motion.udh_skeleton import udh_landmarks
 from hotu_drake.retarget.metrics import report
 from hotu_drake.retarget.pipeline import ROBOTS, to_robot, to_udh
@@ -104,29 +105,6 @@ def test_cmu_clip_on_every_robot(tmp_path):
         assert figures["frames"] == source.num_frames
         if emb.floating_base:
             assert figures["foot_penetration_m"] <= 0.01, robot
-
-
-def test_retargeting_system_streams_like_the_stream():
-    from pydrake.systems.analysis import Simulator
-
-    from hotu_drake.retarget.retargeter import Retargeter, RetargetStream
-    from hotu_drake.systems import RetargetingSystem
-
-    truth = udh_test_clip("none", frames=10)
-    points = udh_landmarks(embodiment.load("udh", "none"), truth)
-    names = list(points)
-    h1 = embodiment.load("h1", "none")
-    system = RetargetingSystem(h1, names, fps=truth.fps)
-    assert system.get_input_port(0).get_name() == "human_pose"
-    assert system.get_output_port(0).get_name() == "positions"
-    assert system.get_output_port(0).size() == 7 + len(h1.joint_names)
-    simulator = Simulator(system)
-    context = simulator.get_mutable_context()
-    system.get_input_port(0).FixValue(context, np.concatenate([points[n][0] for n in names]))
-    simulator.AdvanceTo(0.5 / truth.fps)
-    stream = RetargetStream(Retargeter(h1, set(names)), truth.fps, {n: points[n][:1] for n in names})
-    q, _, _ = stream.push({n: points[n][:1] for n in names})
-    assert system.get_output_port(0).Eval(context)[7:] == pytest.approx(q)
 
 
 def _cli(*args):

@@ -9,11 +9,11 @@ import torch
 from hotu_drake import embodiment
 from hotu_drake.cli import UserError
 from hotu_drake.diagrams import build_simulation
+from hotu_drake.embodiment.actions import ActionScaling
 from hotu_drake.learning.checkpoint import save_checkpoint
-from hotu_drake.resources import scenario_path
+from hotu_drake.objects import SceneObject
 from hotu_drake.retarget.pipeline import library_clip
-from hotu_drake.scenario import InitialCondition, PolicySettings, ReferenceMotion, Scenario, SceneObject, load_scenario
-from hotu_drake.systems.pd import ActionScaling
+from hotu_drake.scenario import InitialCondition, PolicyCheckpoint, ReferenceTracking, Scenario, load_scenario
 from hotu_drake.systems.policy import policy_for
 
 
@@ -23,7 +23,7 @@ def test_reference_state_initialisation_starts_on_the_clip():
     scenario = Scenario(
         embodiment="h1",
         initial=InitialCondition(reference_time=t0),
-        reference=ReferenceMotion(motion="walk"),
+        driver=ReferenceTracking(motion="walk"),
     )
     sim = build_simulation(scenario)
     frame = int(round(t0 * clip.fps))
@@ -39,7 +39,7 @@ def test_reference_state_initialisation_starts_on_the_clip():
 def test_fixed_base_tracking_scenario_follows_the_walk():
     from hotu_drake.simulate import run
 
-    figures = run(load_scenario(scenario_path("track_walk_udh")), duration=1.0)
+    figures = run(load_scenario("track_walk_udh"), duration=1.0)
     assert figures["tracking_rms"] < 0.05  # rad
     assert figures["max_torque_ratio"] <= 1.0 + 1e-9
 
@@ -48,8 +48,8 @@ def test_policy_drives_the_pd_targets_through_the_action_scaling(tmp_path):
     h1 = embodiment.load("h1", "none")
     network = policy_for(h1, seed=3)
     path = save_checkpoint(tmp_path / "policy.pt", network, "h1", "none")
-    policy = PolicySettings(str(path), control_rate=20.0)
-    scenario = Scenario(embodiment="h1", initial=InitialCondition(drop_height=0.0), policy=policy)
+    driver = PolicyCheckpoint(str(path))
+    scenario = Scenario(embodiment="h1", initial=InitialCondition(drop_height=0.0), driver=driver, control_rate=20.0)
     sim = build_simulation(scenario)
     latents = {part: torch.zeros(1, size) for part, size in network.config.latent_sizes.items()}
 
@@ -77,15 +77,15 @@ def test_policy_drives_the_pd_targets_through_the_action_scaling(tmp_path):
 def test_a_checkpoint_for_another_robot_is_refused(tmp_path):
     path = save_checkpoint(tmp_path / "udh.pt", policy_for(embodiment.load("udh", "none")), "udh", "none")
     with pytest.raises(UserError, match="udh.pt.*drives udh"):
-        build_simulation(Scenario(embodiment="h1", policy=PolicySettings(str(path))))
+        build_simulation(Scenario(embodiment="h1", driver=PolicyCheckpoint(str(path))))
 
 
 def test_a_reference_that_is_not_a_motion_or_clip_is_refused(tmp_path):
     with pytest.raises(UserError, match="moonwalk"):
-        build_simulation(Scenario(embodiment="h1", reference=ReferenceMotion(motion=str(tmp_path / "moonwalk"))))
+        build_simulation(Scenario(embodiment="h1", driver=ReferenceTracking(motion=str(tmp_path / "moonwalk"))))
     clip_path = library_clip("squat", "udh", "none").save(tmp_path / "udh_squat.npz")
     with pytest.raises(UserError, match="for 'udh', not h1"):
-        build_simulation(Scenario(embodiment="h1", reference=ReferenceMotion(motion=str(clip_path))))
+        build_simulation(Scenario(embodiment="h1", driver=ReferenceTracking(motion=str(clip_path))))
 
 
 def _hand_position(name: str, hands: str, side: str = "right") -> np.ndarray:
@@ -126,7 +126,7 @@ def test_held_box_floats_until_the_robot_touches_it_then_falls():
 
 
 def test_box_scenario_holds_its_box_and_reports_the_interaction():
-    scenario = load_scenario(scenario_path("box_udh"))
+    scenario = load_scenario("box_udh")
     sim = build_simulation(scenario)
     sim.simulator.AdvanceTo(0.5)
     box = scenario.objects[0]
@@ -145,8 +145,11 @@ def test_bad_scenario_fields_name_the_file(tmp_path):
     bad.write_text("embodiment: udh\nobjects:\n  - kind: piano\n")
     with pytest.raises(UserError, match=f"{bad}.*unknown object kind 'piano'"):
         load_scenario(bad)
-    bad.write_text("embodiment: udh\npolicy:\n  checkpoint: missing.pt\n")
-    with pytest.raises(UserError, match="checkpoint missing.pt not found"):
+    bad.write_text("embodiment: udh\ndriver: !PolicyCheckpoint\n  checkpoint: missing.pt\n")
+    with pytest.raises(UserError, match="checkpoint 'missing.pt' not found"):
+        load_scenario(bad)
+    bad.write_text("embodiment: udh\npolicy:\n  checkpoint: missing.pt\n")  # the 0.1 layout
+    with pytest.raises(UserError, match="checkpoint 'missing.pt' not found"):
         load_scenario(bad)
     bad.write_text("embodiment: udh\ninitial:\n  reference_time: 0.5\n")
     with pytest.raises(UserError, match="needs a reference motion"):

@@ -10,18 +10,17 @@ from pathlib import Path
 
 import pytest
 
-from hotu_drake.resources import systems_dir
-from hotu_drake.scenario import load_scenario
+from hotu_drake.scenario import load_scenario, shipped_scenarios
 from hotu_drake.simulate import run
 
 CHECKSUMS = Path(__file__).parent / "data" / "scenario_checksums.json"
-SCENARIOS = sorted(p.stem for p in systems_dir().glob("*.yaml"))
+SCENARIOS = sorted(shipped_scenarios())
 SHORT = 0.5  # s
 
 
 @pytest.mark.parametrize("name", SCENARIOS)
 def test_scenario_runs_within_torque_limits_and_reproducibly(name):
-    scenario = load_scenario(systems_dir() / f"{name}.yaml")
+    scenario = load_scenario(name)
     figures = run(scenario, SHORT)
     assert figures["max_torque_ratio"] <= 1.0 + 1e-9
     assert not figures["fell"]
@@ -32,7 +31,7 @@ def test_scenario_runs_within_torque_limits_and_reproducibly(name):
 
 def test_perturbation_scenarios_push_but_do_not_topple():
     for name in [n for n in SCENARIOS if n.startswith("perturb_")]:
-        scenario = load_scenario(systems_dir() / f"{name}.yaml")
+        scenario = load_scenario(name)
         figures = run(scenario)
         assert not figures["fell"], name
         assert figures["max_torque_ratio"] <= 1.0 + 1e-9
@@ -59,7 +58,42 @@ def test_simulate_cli_prints_json_and_rejects_bad_files(tmp_path):
     assert result.returncode == 2 and result.stderr.startswith(f"error: {bad}") and result.stderr.count("\n") == 1
 
 
+LEGACY = sorted((Path(__file__).parent / "data" / "legacy_scenarios").glob("*.yaml"))
+
+
+@pytest.mark.parametrize("path", LEGACY, ids=lambda p: p.stem)
+def test_scenario_files_of_the_old_layout_load_as_the_shipped_scenario(path):
+    """hotu_drake 0.1 files (plant:, reference:, policy: sections) still load, to the same diagram."""
+    old, new = load_scenario(path), load_scenario(path.stem)
+    old.base_dir = new.base_dir = ""
+    assert old.to_yaml() == new.to_yaml()
+
+
+def test_scenarios_are_found_by_name_old_path_or_catalogue_entry(tmp_path):
+    from hotu_drake.cli import UserError
+    from hotu_drake.resources import systems_dir
+
+    by_name = load_scenario("perturb_bruce")
+    assert load_scenario(systems_dir() / "perturb_bruce.yaml").to_yaml() == by_name.to_yaml()  # 0.1's path
+    assert load_scenario(systems_dir() / "perturb.yaml", "perturb_bruce").to_yaml() == by_name.to_yaml()
+    with pytest.raises(UserError, match="give one of perturb_udh"):
+        load_scenario(systems_dir() / "perturb.yaml")
+    with pytest.raises(UserError, match="no scenario 'perturb_atlas'"):
+        load_scenario(systems_dir() / "perturb.yaml", "perturb_atlas")
+    catalogue = tmp_path / "mine.yaml"
+    catalogue.write_text("_base: &base {embodiment: bruce}\nquick: {<<: *base, duration: 0.5}\n")
+    assert load_scenario(catalogue).duration == 0.5  # one entry: no name needed
+
+
+def test_a_scenario_pickles_for_worker_processes():
+    import pickle
+
+    scenario = load_scenario("track_walk_h1")
+    again = pickle.loads(pickle.dumps(scenario))
+    assert again.to_yaml() == scenario.to_yaml() and type(again.driver).__name__ == "ReferenceTracking"
+
+
 if __name__ == "__main__":
-    values = {name: run(load_scenario(systems_dir() / f"{name}.yaml"), SHORT)["checksum"] for name in SCENARIOS}
+    values = {name: run(load_scenario(name), SHORT)["checksum"] for name in SCENARIOS}
     CHECKSUMS.write_text(json.dumps(values, indent=2, sort_keys=True) + "\n")
     print(f"wrote {CHECKSUMS}")

@@ -6,8 +6,7 @@ import pytest
 from pydrake.math import RollPitchYaw
 
 from hotu_drake import embodiment
-from hotu_drake.diagrams import PlantSettings, build_standing_simulation
-from hotu_drake.resources import scenario_path
+from hotu_drake.diagrams import build_standing_simulation
 from hotu_drake.scenario import load_scenario
 
 LEGGED = ("udh", "naviai", "h1", "bruce", "walker")
@@ -15,10 +14,10 @@ LEGGED = ("udh", "naviai", "h1", "bruce", "walker")
 
 @pytest.mark.parametrize("name", LEGGED)
 def test_legged_robot_stands_after_a_drop(name):
-    scenario = load_scenario(scenario_path(f"stand_{name}"))
+    scenario = load_scenario(f"stand_{name}")
     assert scenario.embodiment == name and scenario.initial.drop_height == pytest.approx(0.1)
     emb = embodiment.load(scenario.embodiment, scenario.hands)
-    sim = build_standing_simulation(emb, scenario.plant, scenario.initial.drop_height)
+    sim = build_standing_simulation(emb, scenario.plant_config, scenario.initial.drop_height)
     start = sim.pelvis_height()
     assert start == pytest.approx(emb.standing_pelvis_height + 0.1, abs=1e-6)
     sim.simulator.AdvanceTo(scenario.duration)
@@ -35,7 +34,7 @@ def test_legged_robot_stands_after_a_drop(name):
 
 @pytest.mark.parametrize("name", ["udh", "naviai", "h1", "walker"])
 def test_legged_robot_with_full_hands_stands_after_a_drop(name):
-    sim = build_standing_simulation(embodiment.load(name, "full"), PlantSettings(), drop_height=0.1)
+    sim = build_standing_simulation(embodiment.load(name, "full"), drop_height=0.1)
     sim.simulator.AdvanceTo(5.0)
     assert sim.pelvis_height() == pytest.approx(sim.embodiment.standing_pelvis_height, rel=0.10)
     q = sim.joint_positions()
@@ -46,7 +45,7 @@ def test_legged_robot_with_full_hands_stands_after_a_drop(name):
 
 def test_curi_holds_its_torso_and_arms():
     curi = embodiment.load("curi", "full")
-    sim = build_standing_simulation(curi, PlantSettings())
+    sim = build_standing_simulation(curi)
     sim.simulator.AdvanceTo(3.0)
     q = sim.joint_positions()
     assert max(abs(q[j] - target) for j, target in curi.standing_pose_dict().items()) < 0.06
@@ -54,9 +53,9 @@ def test_curi_holds_its_torso_and_arms():
 
 def test_curi_base_follows_a_commanded_planar_velocity():
     curi = embodiment.load("curi", "none")
-    sim = build_standing_simulation(curi, PlantSettings(), base_command=True)
+    sim = build_standing_simulation(curi, base_command=True)
     twist = np.array([0.3, 0.1, 0.2])  # vx, vy in the base frame (m/s), yaw rate (rad/s)
-    sim.diagram.get_input_port(0).FixValue(sim.simulator.get_mutable_context(), twist)
+    sim.diagram.GetInputPort("twist").FixValue(sim.simulator.get_mutable_context(), twist)
     duration = 3.0
     sim.simulator.AdvanceTo(duration)
 

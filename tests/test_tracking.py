@@ -8,9 +8,9 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Multiplexer
 
 from hotu_drake import embodiment
-from hotu_drake.diagrams import PlantSettings
 from hotu_drake.motion.library import generate
 from hotu_drake.retarget.pipeline import to_udh
+from hotu_drake.scenario import default_plant_config
 from hotu_drake.systems.reference import ReferenceMotionSource
 
 # Stated bound: RMS joint tracking error of arms and legs over the clip.
@@ -21,7 +21,7 @@ def test_fixed_base_udh_tracks_a_retargeted_boxing_clip():
     clip = to_udh(generate("boxing"), "none").clip
     udh = embodiment.load("udh", "none")
     builder = DiagramBuilder()
-    plant, _ = AddMultibodyPlant(PlantSettings().plant_config(), builder)
+    plant, _ = AddMultibodyPlant(default_plant_config(), builder)
     model = udh.add_to_plant(plant)
     plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("pelvis", model), RigidTransform([0, 0, 1.2]))
     plant.Finalize()

@@ -4,7 +4,7 @@ Three diagrams per embodiment and hands variant, each run on one core:
 
 - `standing`: the plant and its PD holding the standing pose;
 - `perturbation`: the same while the perturbation scenario throws its cubes
-  (legged robots: the shipped `perturb_<robot>.yaml`);
+  (legged robots: the shipped `perturb_<robot>` scenario);
 - `all_systems`: what a learning step runs: a policy (freshly initialised,
   the network size training uses) setting the PD targets at 30 Hz from the
   ObservationSystem, a held box with a target and the InteractionGraphSystem;
@@ -24,8 +24,8 @@ import torch
 from hotu_drake import embodiment as embodiments
 from hotu_drake.diagrams import build_simulation
 from hotu_drake.learning.checkpoint import save_checkpoint
-from hotu_drake.resources import scenario_path
-from hotu_drake.scenario import InitialCondition, PolicySettings, Scenario, SceneObject, load_scenario
+from hotu_drake.objects import SceneObject
+from hotu_drake.scenario import InitialCondition, PolicyCheckpoint, Scenario, load_scenario, shipped_scenarios
 from hotu_drake.systems.policy import CONTROL_RATE, policy_for
 
 PERTURBATION_SECONDS = 3.0  # the shipped perturbation scenarios throw at 1 s and 2 s
@@ -52,7 +52,8 @@ def all_systems_loop(name: str, hands: str, seconds: float, workdir) -> dict:
         embodiment=name,
         hands=hands,
         initial=InitialCondition(drop_height=0.0),
-        policy=PolicySettings(str(checkpoint), CONTROL_RATE),
+        control_rate=CONTROL_RATE,
+        driver=PolicyCheckpoint(str(checkpoint)),
         objects=[_held_box(emb)],
     )
     sim = build_simulation(scenario, embodiment=emb)
@@ -77,7 +78,7 @@ def all_systems_loop(name: str, hands: str, seconds: float, workdir) -> dict:
     return {
         "realtime_factor": round(steps / CONTROL_RATE / loop, 2),
         "ms_per_control_step": {k: round(1000 * v / steps, 3) for k, v in costs.items()},
-        "fell": bool(emb.floating_base and sim.pelvis_height() < 0.5 * emb.standing_pelvis_height),
+        "fell": sim.fall_check()(sim.plant_context()),
     }
 
 
@@ -95,9 +96,8 @@ def diagram_costs(name: str, hands: str, seconds: float, workdir) -> dict:
         "standing_rtf": round(seconds / wall, 2),
         "standing_ms_per_control_step": round(1000 * wall / (seconds * CONTROL_RATE), 3),
     }
-    path = scenario_path(f"perturb_{name}")
-    if path.is_file():
-        scenario = load_scenario(path)
+    if f"perturb_{name}" in shipped_scenarios():
+        scenario = load_scenario(f"perturb_{name}")
         scenario.hands = hands
         perturbed = build_simulation(scenario, embodiment=emb)
         row["perturbation_rtf"] = round(PERTURBATION_SECONDS / _advance(perturbed, PERTURBATION_SECONDS), 2)

@@ -23,16 +23,17 @@ import gymnasium as gym
 import numpy as np
 
 from hotu_drake import embodiment as embodiments
+from hotu_drake.embodiment.actions import ActionScaling, standing_action
+from hotu_drake.embodiment.spec import FOOT_ROLES, HAND_ROLES
 from hotu_drake.envs import EnvSpec, make_vector_env
-from hotu_drake.systems.pd import ActionScaling
 
 NOISE = 0.01
-KEY_BODY_ROLES = ("left_hand", "right_hand", "left_foot", "right_foot")
+KEY_BODY_ROLES = (*HAND_ROLES, *FOOT_ROLES)
 
 
 def _actions(emb, seed: int):
     rng = np.random.default_rng(seed)
-    standing = np.clip(ActionScaling.for_embodiment(emb).to_action(emb.standing_pose), -1.0, 1.0)
+    standing = standing_action(emb)
     while True:
         yield np.clip(standing + NOISE * rng.standard_normal(standing.size), -1.0, 1.0).astype(np.float32)
 

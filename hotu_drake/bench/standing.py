@@ -6,7 +6,8 @@ import time
 from datetime import UTC, datetime
 
 from hotu_drake import embodiment
-from hotu_drake.diagrams import PlantSettings, build_standing_simulation
+from hotu_drake.diagrams import build_standing_simulation
+from hotu_drake.scenario import default_plant_config
 
 
 def pin_to_one_core() -> None:
@@ -63,12 +64,15 @@ def _version(package: str) -> str:
 
 
 def standing_realtime_factor(
-    name: str, hands: str, seconds: float, settings: PlantSettings, drop_height: float = 0.1
+    name: str, hands: str, seconds: float, time_step: float, self_collision: bool = True, drop_height: float = 0.1
 ) -> dict:
     """Simulate `seconds` of standing; return the real-time factor and outcome."""
     emb = embodiment.load(name, hands)
+    plant_config = default_plant_config()
+    plant_config.time_step = time_step
     start = time.perf_counter()
-    sim = build_standing_simulation(emb, settings, drop_height=drop_height if emb.floating_base else 0.0)
+    drop = drop_height if emb.floating_base else 0.0
+    sim = build_standing_simulation(emb, plant_config, drop_height=drop, self_collision=self_collision)
     build = time.perf_counter() - start
     start = time.perf_counter()
     sim.simulator.AdvanceTo(seconds)

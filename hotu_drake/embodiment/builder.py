@@ -7,12 +7,14 @@ extra axis gets a light intermediate link), and the child link's shapes.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from hotu_drake.embodiment.kinematics import balance_over_feet
 from hotu_drake.embodiment.spec import (
+    SIDES,
     EmbodimentSpec,
     Geometry,
     JointSpec,
@@ -217,3 +219,18 @@ def mirror_axis(a: np.ndarray | Vec3) -> np.ndarray:
     """
     x, y, z = a
     return np.array([-x, y, -z], dtype=float)
+
+
+def key_bodies(pelvis: str, torso: str, head: str, legs: bool = True) -> dict[str, str]:
+    """A robot's key bodies: its pelvis, torso and head links, and the hand
+    and foot links, which every spec names `left_hand`, `right_foot`, ..."""
+    bodies = {"pelvis": pelvis, "torso": torso, "head": head, "left_hand": "left_hand", "right_hand": "right_hand"}
+    if legs:
+        bodies |= {"left_foot": "left_foot", "right_foot": "right_foot"}
+    return bodies
+
+
+def mirrored_pose(per_side: Callable[[str], dict[str, float]]) -> dict[str, float]:
+    """A standing pose given one side at a time: `per_side(side)` maps that
+    side's joint names to angles (left first, then right)."""
+    return {joint: angle for side in SIDES for joint, angle in per_side(side).items()}

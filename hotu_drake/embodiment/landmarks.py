@@ -12,10 +12,7 @@ world-aligned at q = 0, so offsets are world vectors at q = 0.
 
 import numpy as np
 
-from hotu_drake.embodiment.spec import FINGER_PART, EmbodimentSpec
-
-SIDES = ("left", "right")
-FINGER_NAMES = ("thumb", "index", "middle", "ring", "little")
+from hotu_drake.embodiment.spec import FINGER_PART, FINGERS, SIDES, EmbodimentSpec
 
 
 def _first_joint(spec: EmbodimentSpec, prefix: str):
@@ -84,7 +81,7 @@ def _hand(spec: EmbodimentSpec, side: str, out: dict) -> None:
         out[f"{side}_{name}"] = _attach(spec, hand_link, root + linear @ np.asarray(point))
     if spec.hands != "full":
         return
-    for finger in FINGER_NAMES:
+    for finger in FINGERS:
         joints = [j for j in spec.joints if j.part == FINGER_PART and j.name.startswith(f"{side}_{finger}_")]
         if not joints:
             continue

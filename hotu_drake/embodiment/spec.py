@@ -32,6 +32,9 @@ PARTS: tuple[str, ...] = (
 # Joints that move the robot but are not a body part (CURI's holonomic base).
 BASE_PART = "base"
 SIDES: tuple[str, ...] = ("left", "right")
+FINGERS: tuple[str, ...] = ("thumb", "index", "middle", "ring", "little")
+HAND_ROLES: tuple[str, ...] = ("left_hand", "right_hand")
+FOOT_ROLES: tuple[str, ...] = ("left_foot", "right_foot")
 KEY_BODY_ROLES: tuple[str, ...] = (
     "pelvis",
     "torso",

@@ -8,11 +8,13 @@ Importing this package registers:
   method's loco-manipulation tasks with goal, s_I and task reward.
 
 Episodes are cut at 300 control steps (10 s) by gymnasium's TimeLimit.
+The rollout workers (`EnvSpec`, `make_vector_env`, `RolloutCollector`)
+live in `hotu_drake.learning.rollout` (no pydrake) and are re-exported here.
 """
 
 from gymnasium.envs.registration import register, registry
 
-from hotu_drake.envs.rollout import EnvSpec, RolloutBatch, RolloutCollector, make_vector_env
+from hotu_drake.learning.rollout import EnvSpec, RolloutBatch, RolloutCollector, make_vector_env
 
 ENV_IDS: dict[str, str] = {
     "hotu_drake/Imitation-v0": "hotu_drake.envs.imitation:ImitationEnv",

@@ -1,8 +1,10 @@
 """DiagramEnv: a gymnasium environment over a scenario diagram.
 
-The environment builds one diagram with `diagrams.build_simulation(...,
-action_input=True)` and reuses it for every episode (a reset rewrites the
-context). One `step` holds the action (normalised PD targets) for one
+The environment builds one diagram from a `Scenario` (by default the
+environment's own: the robot on the floor, a 1/180 s step, actions at
+30 Hz; or a scenario file or shipped name given as `scenario=`), with the
+`ActionInput` driver, and reuses it for every episode (a reset rewrites
+the context). One `step` holds the action (normalised PD targets) for one
 control period (1/30 s by default) while the simulator advances the plant
 and its PD, then reads the ObservationSystem's outputs.
 
@@ -13,6 +15,7 @@ solver not converging) or a diverged state ends the episode as truncated,
 with a logged warning and the last good observation.
 """
 
+import copy
 import logging
 import time
 from collections import deque
@@ -22,12 +25,52 @@ import gymnasium as gym
 import numpy as np
 
 from hotu_drake import embodiment as embodiments
-from hotu_drake.diagrams import FloorContact, Simulation, build_simulation, place_objects, set_robot_state
+from hotu_drake.diagrams import Simulation, build_simulation
+from hotu_drake.embodiment import Embodiment
+from hotu_drake.embodiment.actions import standing_action
 from hotu_drake.motion.clip import MotionClip
-from hotu_drake.scenario import InitialCondition, PlantSettings, PolicySettings, Scenario, SceneObject
-from hotu_drake.systems.reference import ReferenceMotionSource
+from hotu_drake.motion.playback import ClipPlayback
+from hotu_drake.objects import SceneObject, place_objects
+from hotu_drake.plant import FallCheck, set_robot_state
+from hotu_drake.scenario import ActionInput, InitialCondition, Scenario, load_scenario
 
 log = logging.getLogger("hotu_drake.envs")
+
+# The environments' own scenario, where no `scenario=` is given.
+DEFAULT_ROBOT, DEFAULT_HANDS = "h1", "none"
+DEFAULT_TIME_STEP = 1.0 / 180.0
+DEFAULT_CONTROL_RATE = 30.0
+
+
+def environment_scenario(
+    scenario: Scenario | str | None = None,
+    robot: str | None = None,
+    hands: str | None = None,
+    time_step: float | None = None,
+    control_rate: float | None = None,
+    sampled_output_ports: bool | None = None,
+    objects: list[SceneObject] | None = None,
+) -> Scenario:
+    """The scenario an environment builds: `scenario` (a `Scenario`, a
+    scenario file or a shipped name; default the environment's own) with
+    the keywords that are given overriding its fields, the `ActionInput`
+    driver, and `objects` added to its own."""
+    if scenario is None:
+        base = Scenario(embodiment=DEFAULT_ROBOT, hands=DEFAULT_HANDS, control_rate=DEFAULT_CONTROL_RATE)
+        base.plant_config.time_step = DEFAULT_TIME_STEP
+    else:
+        base = load_scenario(scenario) if isinstance(scenario, str) else copy.deepcopy(scenario)
+    base.embodiment = robot or base.embodiment
+    base.hands = hands or base.hands
+    if time_step is not None:
+        base.plant_config.time_step = time_step
+    if sampled_output_ports is not None:
+        base.plant_config.use_sampled_output_ports = sampled_output_ports
+    base.control_rate = control_rate if control_rate is not None else base.control_rate
+    base.initial = InitialCondition(drop_height=0.0)
+    base.driver = ActionInput()
+    base.objects = [*base.objects, *(objects or [])]
+    return base
 
 
 @dataclass
@@ -55,72 +98,62 @@ class DiagramEnv(gym.Env):
 
     def __init__(
         self,
-        robot: str = "h1",
-        hands: str = "none",
+        scenario: Scenario,
         clips: list[MotionClip] | None = None,
-        objects: list[SceneObject] | None = None,
-        control_rate: float = 30.0,
-        time_step: float = 1.0 / 180.0,
+        embodiment: Embodiment | None = None,
         amp_history: int = 10,
         reference_init_probability: float = 0.8,
         drop_height: float = 0.05,
         termination_height: float = 0.5,
-        sampled_output_ports: bool = False,
-        embodiment=None,
     ):
-        if amp_history < 1 or control_rate <= 0 or time_step <= 0:
+        """`scenario` as `environment_scenario` makes it; `embodiment`
+        overrides its robot (e.g. a resized UDH)."""
+        if amp_history < 1 or scenario.control_rate <= 0 or scenario.time_step <= 0:
             raise ValueError("amp_history must be >= 1, control_rate and time_step > 0")
         if not 0.0 <= reference_init_probability <= 1.0:
             raise ValueError("reference_init_probability must be in [0, 1]")
-        substeps = round(1.0 / (control_rate * time_step))
-        if substeps < 1 or abs(substeps * time_step * control_rate - 1.0) > 1e-9:
+        substeps = round(1.0 / (scenario.control_rate * scenario.time_step))
+        if substeps < 1 or abs(substeps * scenario.time_step * scenario.control_rate - 1.0) > 1e-9:
             # Otherwise actions would be held, and AMP frames spaced, unevenly.
-            raise ValueError(f"the control period 1/{control_rate} s must be a whole number of {time_step} s steps")
-        self.embodiment = embodiment or embodiments.load(robot, hands)
+            raise ValueError(
+                f"the control period 1/{scenario.control_rate} s must be a whole number of {scenario.time_step} s steps"
+            )
+        self.embodiment = embodiment or embodiments.load(scenario.embodiment, scenario.hands)
         emb = self.embodiment
+        self.scenario = scenario
         self.clips = list(clips or [])
-        self.control_period = 1.0 / control_rate
+        self.control_period = 1.0 / scenario.control_rate
         self.amp_history = amp_history
         self.reference_init_probability = reference_init_probability if self.clips else 0.0
         self.drop_height = drop_height
-        self.termination_height = termination_height * emb.standing_pelvis_height
-        scenario = Scenario(
-            embodiment=emb.name,
-            hands=emb.hands,
-            plant=PlantSettings(time_step=time_step, sampled_output_ports=sampled_output_ports),
-            initial=InitialCondition(drop_height=0.0),
-            policy=PolicySettings(control_rate=control_rate),
-            objects=list(objects or []),
-        )
-        self.sim: Simulation = build_simulation(scenario, embodiment=emb, action_input=True)
+        self.sim: Simulation = build_simulation(scenario, embodiment=emb)
         sim = self.sim
         self._context = sim.simulator.get_mutable_context()
         self._plant_context = sim.plant.GetMyMutableContextFromRoot(self._context)
         self._action_port = sim.diagram.GetInputPort("action")
         self._observation_port = sim.diagram.GetOutputPort("observation")
         self._amp_port = sim.diagram.GetOutputPort("amp_observation")
-        observer = sim.systems["observation"]
-        self.part_slices: dict[str, slice] = dict(observer.part_slices)
-        plant, model = sim.plant, sim.model
-        self._root = plant.GetBodyByName(emb.spec.root.name, model)
-        self._pelvis = plant.GetBodyByName(emb.key_bodies["pelvis"], model)
-        self._floor_contact = FloorContact(plant, model, emb)
-        self._samplers = [ReferenceMotionSource(c, loop=False, floating_base=emb.floating_base) for c in self.clips]
+        self._observer = sim.systems["observation"]
+        self._root = sim.plant.GetBodyByName(emb.spec.root.name, sim.model)
+        self.part_slices: dict[str, slice] = dict(self._observer.part_slices)
+        self._fall = FallCheck(sim.plant, sim.model, emb, height_fraction=termination_height)
+        self.termination_height = self._fall.min_pelvis_height
+        self._playbacks = [ClipPlayback(c, loop=False) for c in self.clips]
         n = len(emb.joint_names)
         self.action_space = gym.spaces.Box(-1.0, 1.0, (n,), np.float32)
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (self._observation_size(),), np.float32)
         self._history: deque = deque(maxlen=amp_history)
-        self._scene_objects = scenario.objects
-        # A scratch context of the observation system, for AMP frames of clip states.
+        self._standing_action = standing_action(emb)
+        # Scratch contexts of the plant and the observation system, for AMP frames of clip states.
         self._scratch_plant = sim.plant.CreateDefaultContext()
-        self._scratch_observer = observer.CreateDefaultContext()
+        self._scratch_observer = self._observer.CreateDefaultContext()
         self.timings = EnvTimings()
         self.init_kind = "default"
 
     # -- what subclasses extend ------------------------------------------------
 
     def _observation_size(self) -> int:
-        return self.sim.systems["observation"].observation_size
+        return self._observer.observation_size
 
     def _extra_observation(self) -> np.ndarray:
         return np.zeros(0)
@@ -149,7 +182,7 @@ class DiagramEnv(gym.Env):
             index = options.get("clip", int(self.np_random.integers(len(self.clips))))
             clip = self.clips[index]
             start = options.get("time", float(self.np_random.uniform(0.0, max(clip.duration - 0.1, 0.0))))
-            self._set_reference_state(self._samplers[index], start)
+            self._set_reference_state(self._playbacks[index], start)
             # The AMP history before the start is the clip's own past frames.
             past = start - self.control_period * np.arange(self.amp_history - 1, 0, -1)
             history = [self.clip_amp_frame(index, t) for t in past]
@@ -160,7 +193,7 @@ class DiagramEnv(gym.Env):
         self.init_kind = kind
         self._place_objects()
         self._place_task()
-        self._action_port.FixValue(context, self._standing_action())
+        self._action_port.FixValue(context, self._standing_action)
         self.sim.simulator.Initialize()
         amp = self._amp_port.Eval(context).copy()
         self._history.clear()
@@ -204,13 +237,10 @@ class DiagramEnv(gym.Env):
         the clip), aligned as reference starts are; for the history at a
         reference start and for the discriminators' demonstration frames."""
         sim = self.sim
-        set_robot_state(
-            sim.plant, self._scratch_plant, sim.model, self.embodiment, self._samplers[clip_index], time_, align=True
-        )
-        state = sim.plant.GetPositionsAndVelocities(self._scratch_plant, sim.model)
-        observer = sim.systems["observation"]
-        observer.GetInputPort("state").FixValue(self._scratch_observer, state)
-        return observer.GetOutputPort("amp_observation").Eval(self._scratch_observer).copy()
+        playback = self._playbacks[clip_index]
+        set_robot_state(sim.plant, self._scratch_plant, sim.model, self.embodiment, playback, time_, align=True)
+        self._observer.fix_inputs_from_plant(self._scratch_observer, sim.plant, self._scratch_plant, sim.model)
+        return self._observer.GetOutputPort("amp_observation").Eval(self._scratch_observer).copy()
 
     def _truncate_after_failure(self, error: Exception, when: float):
         """End the episode as truncated, returning the last good observation and info."""
@@ -229,22 +259,21 @@ class DiagramEnv(gym.Env):
     def _advance_to(self, time_: float) -> None:
         self.sim.simulator.AdvanceTo(time_)
 
-    def _standing_action(self) -> np.ndarray:
-        from hotu_drake.systems.pd import ActionScaling
-
-        return np.clip(ActionScaling.for_embodiment(self.embodiment).to_action(self.embodiment.standing_pose), -1, 1)
+    def standing_action(self) -> np.ndarray:
+        """The action that holds the standing pose."""
+        return self._standing_action.copy()
 
     def _set_default_state(self, drop: float) -> None:
         sim = self.sim
         set_robot_state(sim.plant, self._plant_context, sim.model, self.embodiment, drop_height=drop)
 
-    def _set_reference_state(self, sampler: ReferenceMotionSource, time_: float) -> None:
+    def _set_reference_state(self, playback: ClipPlayback, time_: float) -> None:
         sim = self.sim
-        set_robot_state(sim.plant, self._plant_context, sim.model, self.embodiment, sampler, time_, align=True)
+        set_robot_state(sim.plant, self._plant_context, sim.model, self.embodiment, playback, time_, align=True)
 
     def _place_objects(self) -> None:
         """Free objects back at their configured poses (tasks then draw theirs)."""
-        place_objects(self.sim.plant, self._plant_context, self.sim.objects, self._scene_objects)
+        place_objects(self.sim.plant, self._plant_context, self.sim.objects, self.scenario.objects)
 
     def _observe(self) -> np.ndarray:
         robot = self._observation_port.Eval(self._context)
@@ -256,11 +285,7 @@ class DiagramEnv(gym.Env):
         return {"amp": amp, "time": self._context.get_time(), "init": self.init_kind}
 
     def pelvis_height(self) -> float:
-        return float(self.sim.plant.EvalBodyPoseInWorld(self._plant_context, self._pelvis).translation()[2])
+        return self._fall.pelvis_height(self._plant_context)
 
     def _fell(self) -> bool:
-        if not self.embodiment.floating_base:
-            return False
-        if self.pelvis_height() < self.termination_height:
-            return True
-        return self._floor_contact(self._plant_context)
+        return self._fall(self._plant_context)

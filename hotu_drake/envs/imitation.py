@@ -16,16 +16,33 @@
   drops below `termination_height` x its standing height.
 - `motions`: names from the generated library and/or `.npz` clips of the
   embodiment; default the whole library (retargeted once, then cached).
+- The diagram: the environment's own scenario (H1 without fingers on the
+  floor, a 1/180 s plant step, actions at 30 Hz), or `scenario=` (a
+  `Scenario`, a scenario file or a shipped name: its robot, plant and
+  objects); `robot`, `hands`, `time_step`, `control_rate` and
+  `sampled_output_ports` override either.
 """
 
 from collections.abc import Sequence
 
 from hotu_drake import embodiment as embodiments
-from hotu_drake.envs.base import DiagramEnv
+from hotu_drake.envs.base import DiagramEnv, environment_scenario
 from hotu_drake.retarget.references import reference_clips
+from hotu_drake.scenario import Scenario
 
 
 class ImitationEnv(DiagramEnv):
-    def __init__(self, robot: str = "h1", hands: str = "none", motions: Sequence[str] | None = None, **options):
-        emb = embodiments.load(robot, hands)
-        super().__init__(clips=reference_clips(emb, motions), embodiment=emb, **options)
+    def __init__(
+        self,
+        robot: str | None = None,
+        hands: str | None = None,
+        motions: Sequence[str] | str | None = None,
+        scenario: Scenario | str | None = None,
+        time_step: float | None = None,
+        control_rate: float | None = None,
+        sampled_output_ports: bool | None = None,
+        **options,
+    ):
+        scenario = environment_scenario(scenario, robot, hands, time_step, control_rate, sampled_output_ports)
+        emb = embodiments.load(scenario.embodiment, scenario.hands)
+        super().__init__(scenario, reference_clips(emb, motions), emb, **options)

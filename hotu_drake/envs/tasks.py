@@ -21,13 +21,13 @@ import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw
 
 from hotu_drake import embodiment as embodiments
-from hotu_drake.diagrams import object_body
-from hotu_drake.envs.base import DiagramEnv
+from hotu_drake.embodiment.spec import HAND_ROLES
+from hotu_drake.envs.base import DiagramEnv, environment_scenario
+from hotu_drake.objects import DRILL_BASE, TABLE_TOP, SceneObject, object_body
 from hotu_drake.retarget.references import reference_clips
-from hotu_drake.scenario import SceneObject
-from hotu_drake.systems.observation import heading_rotation
+from hotu_drake.rotations import heading_rotation
+from hotu_drake.scenario import Scenario
 
-HANDS = ("left_hand", "right_hand")
 GOAL_FEATURES = 3 + 6 + 3
 
 
@@ -45,14 +45,28 @@ class _ObjectTaskEnv(DiagramEnv):
 
     object_kind = "box"
 
-    def __init__(self, robot: str, hands: str, motions: Sequence[str] | None, obj: SceneObject, **options):
-        emb = embodiments.load(robot, hands)
-        clips = reference_clips(emb, motions)
+    def __init__(
+        self,
+        robot: str | None,
+        hands: str | None,
+        motions: Sequence[str] | str | None,
+        obj: SceneObject,
+        scenario: Scenario | str | None = None,
+        time_step: float | None = None,
+        control_rate: float | None = None,
+        sampled_output_ports: bool | None = None,
+        **options,
+    ):
+        if robot is None and scenario is None:
+            robot = "udh"
+        objects = self._scene_objects(obj)
+        scenario = environment_scenario(scenario, robot, hands, time_step, control_rate, sampled_output_ports, objects)
+        emb = embodiments.load(scenario.embodiment, scenario.hands)
         self._object = obj
-        super().__init__(clips=clips, objects=self._scene_objects(obj), embodiment=emb, **options)
+        super().__init__(scenario, reference_clips(emb, motions), emb, **options)
         sim = self.sim
         self._object_body = object_body(sim.plant, sim.objects, obj)
-        self._hand_bodies = [sim.plant.GetBodyByName(emb.key_bodies[r], sim.model) for r in HANDS]
+        self._hand_bodies = [sim.plant.GetBodyByName(emb.key_bodies[r], sim.model) for r in HAND_ROLES]
         self._graph_port = sim.diagram.GetOutputPort("interaction")
         self._targets = sim.systems["object_targets"]
         self.start_pose = RigidTransform()
@@ -122,8 +136,8 @@ class BoxCarryEnv(_ObjectTaskEnv):
 
     def __init__(
         self,
-        robot: str = "udh",
-        hands: str = "none",
+        robot: str | None = None,
+        hands: str | None = None,
         motions: Sequence[str] | None = ("walk", "box_carry"),
         start_distance: tuple[float, float] = (0.5, 0.8),
         start_bearing: tuple[float, float] = (-0.3, 0.3),
@@ -175,13 +189,10 @@ class DrillGraspEnv(_ObjectTaskEnv):
     `info["success"]` once the drill is within 0.05 m of the target.
     """
 
-    TABLE_TOP = 0.72
-    DRILL_BASE = 0.09  # from the drill's frame down to the bottom of its battery
-
     def __init__(
         self,
-        robot: str = "udh",
-        hands: str = "none",
+        robot: str | None = None,
+        hands: str | None = None,
         motions: Sequence[str] | None = ("walk", "drill_grasp"),
         table_distance: float = 0.65,
         drill_offset: tuple[float, float] = (-0.15, 0.15),
@@ -200,7 +211,7 @@ class DrillGraspEnv(_ObjectTaskEnv):
     def _sample_goal(self) -> tuple[RigidTransform, np.ndarray]:
         r, rng = self.ranges, self.np_random
         y = r["drill_offset"].sample(rng)
-        height = self.TABLE_TOP + self.DRILL_BASE + 0.002
+        height = TABLE_TOP + DRILL_BASE + 0.002
         start = [self.table_distance, y, height]
         yaw = float(rng.uniform(-0.5, 0.5))
         target = np.array([self.table_distance - 0.15, y, height + r["lift_height"].sample(rng)])

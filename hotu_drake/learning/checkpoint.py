@@ -12,12 +12,11 @@ A `torch.save` dictionary:
 """
 
 import dataclasses
-import os
-import tempfile
 from pathlib import Path
 
 import torch
 
+from hotu_drake.io import atomic_output
 from hotu_drake.learning.policy import PolicyConfig, PolicyNetwork
 
 FORMAT_VERSION = 1
@@ -40,15 +39,8 @@ def save_checkpoint(
         "state_dict": network.state_dict(),
         "training": training or {},
     }
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
+    with atomic_output(path) as tmp:
         torch.save(data, tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return path
 
 

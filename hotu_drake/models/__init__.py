@@ -1,4 +1,4 @@
-"""The model files of the six embodiments: the DoF table and what `models/` holds.
+"""The model files of the six embodiments and the task objects: the DoF table and what `models/` holds.
 
 `python -m hotu_drake.models` is the command line over these.
 """
@@ -6,6 +6,7 @@
 from hotu_drake import embodiment
 from hotu_drake.embodiment.embodiment import EXPORT_SUFFIX
 from hotu_drake.embodiment.spec import PARTS
+from hotu_drake.objects import OBJECTS, object_sdf
 
 
 def dof_table(hands: str = "full") -> dict[str, dict[str, int]]:
@@ -29,4 +30,6 @@ def generated_files() -> dict[str, str]:
             emb = embodiment.load(name, hands)
             for fmt, suffix in EXPORT_SUFFIX.items():
                 files[f"{name}/{name}_hands_{hands}{suffix}"] = emb.model_text(fmt)
+    for name in OBJECTS:
+        files[f"objects/{name}.sdf"] = object_sdf(name)
     return files

@@ -29,8 +29,8 @@ import numpy as np
 from hotu_drake.io import write_text_atomic
 from hotu_drake.motion.clip import ClipFormatError, MotionClip
 from hotu_drake.motion.human import REQUIRED_LANDMARKS, human_clip
-from hotu_drake.motion.rotations import quat_to_matrix
 from hotu_drake.motion.skeleton_maps import JointNames, apply_user_map, best_family, load_user_map
+from hotu_drake.rotations import euler_xyz, quat_to_matrix
 
 if TYPE_CHECKING:
     from hotu_drake.embodiment import Embodiment
@@ -464,16 +464,6 @@ def read_bvh(
 
 
 # --- writing ----------------------------------------------------------------------------------------------
-
-
-def euler_xyz(rotations: np.ndarray) -> np.ndarray:
-    """(T, 3) angles (a, b, c) with R = Rx(a) Ry(b) Rz(c), continuous over frames."""
-    r = np.asarray(rotations, dtype=float)
-    b = np.arcsin(np.clip(r[:, 0, 2], -1.0, 1.0))
-    locked = np.abs(r[:, 0, 2]) > 1.0 - 1e-10
-    a = np.where(locked, np.arctan2(np.sign(r[:, 0, 2]) * r[:, 1, 0], r[:, 1, 1]), np.arctan2(-r[:, 1, 2], r[:, 2, 2]))
-    c = np.where(locked, 0.0, np.arctan2(-r[:, 0, 1], r[:, 0, 0]))
-    return np.stack([np.unwrap(a), b, np.unwrap(c)], axis=1)
 
 
 @dataclass

@@ -29,8 +29,6 @@ On disk (`np.savez`, format version 1):
 """
 
 import json
-import os
-import tempfile
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -38,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from hotu_drake.cli import UserError
+from hotu_drake.io import atomic_output
 
 FORMAT_VERSION = 1
 _REQUIRED = (
@@ -103,7 +102,7 @@ class MotionClip:
         """A clip whose velocities are the finite differences of its positions
         (the root's quaternions made sign-continuous first). `optional` takes
         `part_index`, `object_names`, `object_poses`, `contact_names`, `contacts`."""
-        from hotu_drake.motion.rotations import angular_velocity, finite_difference, make_continuous
+        from hotu_drake.rotations import angular_velocity, finite_difference, make_continuous
 
         joint_positions = np.asarray(joint_positions, dtype=float)
         root_position = np.asarray(root_position, dtype=float)
@@ -240,18 +239,8 @@ class MotionClip:
             if self.contacts is None
             else np.asarray(self.contacts, dtype=bool),
         }
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".npz", dir=path.parent)
-        os.close(fd)
-        try:
+        with atomic_output(path, suffix=".npz") as tmp:
             np.savez(tmp, **arrays)
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(tmp, 0o666 & ~umask)
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
         return path
 
     @staticmethod

@@ -11,12 +11,11 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from hotu_drake.embodiment.spec import FINGERS, SIDES
 from hotu_drake.motion.clip import ClipFormatError, MotionClip
-from hotu_drake.motion.rotations import matrix_to_quat
+from hotu_drake.rotations import matrix_to_quat
 
 HUMAN = "human"
-SIDES = ("left", "right")
-FINGERS = ("thumb", "index", "middle", "ring", "little")
 
 # head_front: a point 10 cm in front of the head centre (gives the head's yaw).
 AXIAL_LANDMARKS = ("pelvis", "spine", "chest", "neck", "head", "head_top", "head_front")

@@ -15,12 +15,11 @@ becomes +x and up +z, so an upright object keeps an identity orientation.
 import csv
 import dataclasses
 import io
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from hotu_drake.io import atomic_output
 from hotu_drake.motion.clip import ClipFormatError, MotionClip
 
 # Rows of this matrix take a Y-up Motive vector (x, y, z) to z up: (z, x, y).
@@ -275,20 +274,9 @@ def write_optitrack_csv(
             body = motive[t, k]
             cells += [f"{v:.6f}" for v in body] if np.all(np.isfinite(body)) else [""] * 7
         rows.append(cells)
-    return _write_atomic(Path(path), rows)
-
-
-def _write_atomic(path: Path, rows: list[list[str]]) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".csv", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", newline="") as f:
-            csv.writer(f).writerows(rows)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    with atomic_output(path, suffix=".csv") as tmp, open(tmp, "w", newline="") as f:
+        csv.writer(f).writerows(rows)
+    return Path(path)
 
 
 # --- synchronising objects with a clip ---------------------------------------

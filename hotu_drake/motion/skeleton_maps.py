@@ -16,15 +16,14 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
+from hotu_drake.embodiment.spec import FINGERS, SIDES
 from hotu_drake.motion.clip import ClipFormatError
 from hotu_drake.motion.human import (
     AXIAL_LANDMARKS,
     FINGER_POINTS,
-    FINGERS,
     LANDMARKS,
     LIMB_LANDMARKS,
     REQUIRED_LANDMARKS,
-    SIDES,
 )
 
 END = ":end"

@@ -20,10 +20,10 @@ import numpy as np
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.kinematics import batch_link_poses
 from hotu_drake.embodiment.landmarks import landmark_placements
+from hotu_drake.embodiment.spec import FINGERS, SIDES
+from hotu_drake.rotations import euler_xyz_within_limits, heading_yaw, normalize, rot_x, rot_y, rot_z, wrap
 
-SIDES = ("left", "right")
-FINGERS = ("thumb", "index", "middle", "ring", "little")
-GRAVITY = 9.81
+GRAVITY = 9.81  # m/s^2, for ballistic phases (jumps)
 _EY = np.array([0.0, 1.0, 0.0])
 
 
@@ -81,73 +81,7 @@ def smooth(x: np.ndarray, fps: float, sigma: float) -> np.ndarray:
     return out.reshape(x.shape)
 
 
-def wrap(angle: np.ndarray) -> np.ndarray:
-    """Angles wrapped to (-pi, pi]."""
-    return np.pi - np.mod(np.pi - np.asarray(angle, dtype=float), 2 * np.pi)
-
-
 # --- rotations -------------------------------------------------------------------
-
-
-def _axis_rotation(angle, i: int, j: int) -> np.ndarray:
-    angle = np.asarray(angle, dtype=float)
-    c, s = np.cos(angle), np.sin(angle)
-    r = np.zeros(angle.shape + (3, 3))
-    k = 3 - i - j
-    r[..., k, k] = 1.0
-    r[..., i, i] = r[..., j, j] = c
-    r[..., i, j], r[..., j, i] = -s, s
-    return r
-
-
-def rot_x(angle) -> np.ndarray:
-    """Rotations about x, shape (..., 3, 3)."""
-    return _axis_rotation(angle, 1, 2)
-
-
-def rot_y(angle) -> np.ndarray:
-    """Rotations about y, shape (..., 3, 3)."""
-    return _axis_rotation(angle, 2, 0)
-
-
-def rot_z(angle) -> np.ndarray:
-    """Rotations about z, shape (..., 3, 3)."""
-    return _axis_rotation(angle, 0, 1)
-
-
-def _normalize(v: np.ndarray) -> np.ndarray:
-    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-12)
-
-
-def euler_xyz(r: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
-    """Angles (a, b, c) with r = Rx(a) Ry(b) Rz(c), the order of the UDH's
-    3-DoF joints, for a trajectory of rotations (T, 3, 3).
-
-    Every rotation has two such solutions; the trajectory takes the one
-    that stays within the joint limits and continuous in time (a dynamic
-    programme over the two branches), so passing near gimbal lock does not
-    flip the joint by half a turn.
-    """
-    a1 = np.arctan2(-r[..., 1, 2], r[..., 2, 2])
-    b1 = np.arcsin(np.clip(r[..., 0, 2], -1.0, 1.0))
-    c1 = np.arctan2(-r[..., 0, 1], r[..., 0, 0])
-    first = np.stack([a1, b1, c1], -1)
-    second = wrap(first + np.array([np.pi, 0.0, np.pi]))
-    second[..., 1] = wrap(np.pi - b1)
-    branches = np.stack([first, second])  # (2, T, 3)
-    violation = (np.maximum(lower - branches, 0.0) + np.maximum(branches - upper, 0.0)).sum(-1)
-    cost = 10.0 * violation + 0.01 * np.abs(branches).sum(-1)  # (2, T)
-    jump = np.abs(wrap(branches[:, None, 1:] - branches[None, :, :-1])).sum(-1)  # (to, from, T - 1)
-    total, back = cost[:, 0].copy(), np.zeros((len(first), 2), dtype=int)
-    for t in range(1, len(first)):
-        options = total[None, :] + jump[:, :, t - 1]
-        back[t] = np.argmin(options, axis=1)
-        total = cost[:, t] + options[[0, 1], back[t]]
-    choice = np.empty(len(first), dtype=int)
-    choice[-1] = int(np.argmin(total))
-    for t in range(len(first) - 1, 0, -1):
-        choice[t - 1] = back[t, choice[t]]
-    return branches[choice, np.arange(len(first))]
 
 
 def hand_rotation(side: str, fingers: np.ndarray, palm: np.ndarray) -> np.ndarray:
@@ -157,9 +91,9 @@ def hand_rotation(side: str, fingers: np.ndarray, palm: np.ndarray) -> np.ndarra
     At q = 0 a UDH hand hangs with the fingers down (-z), the palm facing the
     body (+y for the right hand, -y for the left) and the thumb forward.
     """
-    f = _normalize(np.asarray(fingers, dtype=float))
+    f = normalize(np.asarray(fingers, dtype=float))
     p = np.asarray(palm, dtype=float)
-    p = _normalize(p - np.sum(p * f, -1, keepdims=True) * f)
+    p = normalize(p - np.sum(p * f, -1, keepdims=True) * f)
     y = p if side == "right" else -p
     z = -f
     return np.stack([np.cross(y, z), y, z], axis=-1)
@@ -168,9 +102,9 @@ def hand_rotation(side: str, fingers: np.ndarray, palm: np.ndarray) -> np.ndarra
 def limb_rotation(direction: np.ndarray, plane_axis: np.ndarray, local: np.ndarray) -> np.ndarray:
     """Rotation taking the limb-local vector `local` (in the x-z plane) to
     world `direction`, and the limb's y axis to `plane_axis`."""
-    d = _normalize(direction)
-    y = _normalize(plane_axis)
-    v = _normalize(local)
+    d = normalize(direction)
+    y = normalize(plane_axis)
+    v = normalize(local)
     world = np.stack([d, y, np.cross(d, y)], axis=-1)
     body = np.stack([v, np.broadcast_to(_EY, v.shape), np.cross(v, _EY)], axis=-1)
     return world @ np.swapaxes(body, -1, -2)
@@ -273,7 +207,7 @@ def _two_link(distance: np.ndarray, a: float, b: float, min_bend: float, max_ben
 
 def _joint_angles(body: Body, names: list[str], r: np.ndarray) -> np.ndarray:
     lo, hi = body.limits(names)
-    return np.clip(euler_xyz(r, lo, hi), lo, hi)
+    return np.clip(euler_xyz_within_limits(r, lo, hi), lo, hi)
 
 
 def _euler_matrix(angles: np.ndarray) -> np.ndarray:
@@ -289,7 +223,7 @@ def leg_ik(
     knee = _two_link(np.linalg.norm(d, axis=-1), body.thigh, body.shin, 0.02, 2.7)
     local = np.stack([-body.shin * np.sin(knee), 0 * knee, -body.thigh - body.shin * np.cos(knee)], -1)
     forward = foot_rot[:, :, 0]
-    thigh_rot = limb_rotation(d, np.cross(forward, _normalize(d)), local)
+    thigh_rot = limb_rotation(d, np.cross(forward, normalize(d)), local)
     names = [f"{side}_hip_{a}" for a in "xyz"]
     hip_q = _joint_angles(body, names, np.swapaxes(pelvis_rot, -1, -2) @ thigh_rot)
     shin_rot = pelvis_rot @ _euler_matrix(hip_q) @ rot_y(knee)
@@ -317,7 +251,7 @@ def arm_ik(
     bend = _two_link(np.linalg.norm(d, axis=-1), body.upper_arm, body.forearm, 0.05, 2.7)
     elbow = -bend
     local = np.stack([body.forearm * np.sin(bend), 0 * bend, -body.upper_arm - body.forearm * np.cos(bend)], -1)
-    plane = np.cross(_normalize(d), _normalize(np.asarray(elbow_dir, dtype=float)))
+    plane = np.cross(normalize(d), normalize(np.asarray(elbow_dir, dtype=float)))
     upper_rot = limb_rotation(d, plane, local)
     names = [f"{side}_shoulder_{a}" for a in "xyz"]
     shoulder_q = _joint_angles(body, names, np.swapaxes(torso_rot, -1, -2) @ upper_rot)
@@ -477,8 +411,7 @@ class Plan:
 
 def heading_of(feet: dict[str, tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
     """(T,) heading: the mean yaw of the two feet."""
-    f = feet["left"][1][:, :, 0] + feet["right"][1][:, :, 0]
-    return np.unwrap(np.arctan2(f[:, 1], f[:, 0]))
+    return np.unwrap(heading_yaw(feet["left"][1] + feet["right"][1]))
 
 
 def pelvis_over_feet(

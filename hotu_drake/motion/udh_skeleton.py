@@ -11,7 +11,7 @@ from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.kinematics import batch_link_poses
 from hotu_drake.embodiment.landmarks import landmark_placements as _placements
 from hotu_drake.motion.clip import MotionClip
-from hotu_drake.motion.rotations import quat_to_matrix
+from hotu_drake.rotations import quat_to_matrix
 
 
 def landmark_placements(udh: Embodiment) -> dict[str, tuple[str, np.ndarray]]:

@@ -8,9 +8,11 @@ identity on every embodiment.
 
 import numpy as np
 
+from hotu_drake.rotations import normalize
+
 
 def _normalize(v: np.ndarray) -> np.ndarray:
-    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-9)
+    return normalize(v, floor=1e-9)
 
 
 def frame_from_zy(z: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -59,13 +61,3 @@ def hand_frame(p: dict, side: str) -> np.ndarray:
 def foot_frame(p: dict, side: str, lateral: np.ndarray) -> np.ndarray:
     """x from the ankle to the ball of the foot, y along the pelvis' lateral axis."""
     return frame_from_xy(p[f"{side}_toe"] - p[f"{side}_ankle"], lateral)
-
-
-def heading(rotation: np.ndarray) -> np.ndarray:
-    """Yaw-only rotations (..., 3, 3) sharing the heading of `rotation`'s x axis."""
-    x = rotation[..., :, 0].copy()
-    x[..., 2] = 0.0
-    x = _normalize(x)
-    z = np.zeros_like(x)
-    z[..., 2] = 1.0
-    return np.stack([x, np.cross(z, x), z], axis=-1)

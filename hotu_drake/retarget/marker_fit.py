@@ -23,9 +23,9 @@ import numpy as np
 
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.kinematics import batch_link_poses
-from hotu_drake.motion.c3d import MarkerSetLike, marker_placements, markers_to_landmarks, udh_markers
 from hotu_drake.motion.clip import ClipFormatError, MotionClip
-from hotu_drake.motion.rotations import quat_to_matrix
+from hotu_drake.motion.marker_sets import MarkerSetLike, marker_placements, markers_to_landmarks, udh_markers
+from hotu_drake.rotations import quat_to_matrix
 
 MARKER_WEIGHT = 100.0  # per marker, on squared metres
 SMOOTHNESS = 1e-3  # on squared change of every position from the previous frame

@@ -9,14 +9,15 @@ import numpy as np
 
 from hotu_drake import embodiment as embodiments
 from hotu_drake.embodiment.landmarks import landmark_placements
+from hotu_drake.embodiment.spec import FINGERS
 from hotu_drake.motion.clip import MotionClip
-from hotu_drake.motion.human import FINGERS, landmarks_of
-from hotu_drake.motion.rotations import quat_to_matrix, rotation_log
+from hotu_drake.motion.human import landmarks_of
 from hotu_drake.motion.udh_skeleton import points_on_clip
 from hotu_drake.retarget import frames
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
-from hotu_drake.retarget.retargeter import _foot_contacts_of
+from hotu_drake.retarget.retargeter import foot_contacts_of
 from hotu_drake.retarget.tree import Tree
+from hotu_drake.rotations import heading_rotation, quat_to_matrix, rotation_log
 
 # The segment that shows each part's posture (torso and neck: a body frame).
 PART_FRAMES = {"torso": frames.chest_frame, "neck": frames.head_frame}
@@ -39,7 +40,7 @@ def clip_landmarks(emb: embodiments.Embodiment, clip: MotionClip) -> dict[str, n
 
 
 def _heading(points: dict[str, np.ndarray]) -> np.ndarray:
-    return frames.heading(frames.pelvis_frame(points))
+    return heading_rotation(frames.pelvis_frame(points))
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -116,7 +117,7 @@ def report(source: MotionClip, result: MotionClip, emb: embodiments.Embodiment, 
             errs.append(np.linalg.norm(rel_src - rel_dst, axis=-1))
         out["key_body_error"] = round(float(np.mean(errs)), 4)
     if legged:
-        contacts = _foot_contacts_of(source, source.num_frames) or detect_foot_contacts(src, source.fps)
+        contacts = foot_contacts_of(source, source.num_frames) or detect_foot_contacts(src, source.fps)
         speeds = []
         for side in ("left", "right"):
             ankle = dst[f"{side}_ankle"]

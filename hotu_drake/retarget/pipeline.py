@@ -4,8 +4,8 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 from hotu_drake import embodiment
+from hotu_drake.embodiment.spec import FINGERS
 from hotu_drake.motion.clip import MotionClip
-from hotu_drake.motion.human import FINGERS
 from hotu_drake.motion.udh_skeleton import udh_landmarks
 from hotu_drake.retarget.retargeter import Retargeter, RetargetOptions
 

@@ -10,15 +10,16 @@ from pathlib import Path
 import numpy as np
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.geometry import Box, Cylinder, Meshcat, MeshcatVisualizer, Rgba, Sphere, StartMeshcat
-from pydrake.math import RigidTransform
+from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.framework import DiagramBuilder
 
 from hotu_drake import embodiment
-from hotu_drake.diagrams import actuated_joint_order
 from hotu_drake.io import write_text_atomic
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import landmarks_of
+from hotu_drake.objects import OBJECT_MODELS
+from hotu_drake.plant import actuated_joint_order
 
 LANE = 1.2  # metres between lanes
 REPLAY_FPS = 30.0
@@ -26,20 +27,31 @@ OBJECT_COLOR = Rgba(0.72, 0.52, 0.30, 1.0)
 
 
 def _add_object(meshcat: Meshcat, path: str, name: str, pose: np.ndarray) -> None:
-    """Shapes of the library's objects, in their own frames (see motion.library)."""
-    if name == "box":
-        meshcat.SetObject(f"{path}/body", Box(0.3, 0.3, 0.3), OBJECT_COLOR)
-    elif name == "drill":
-        meshcat.SetObject(f"{path}/grip", Cylinder(0.02, 0.12), Rgba(0.15, 0.15, 0.15, 1.0))
-        meshcat.SetObject(f"{path}/barrel", Box(0.2, 0.05, 0.06), Rgba(0.9, 0.6, 0.1, 1.0))
-        meshcat.SetTransform(f"{path}/barrel", RigidTransform([0.05, 0.0, 0.08]))
-    elif name == "table":
-        height = float(pose[2])
-        meshcat.SetObject(f"{path}/top", Box(0.6, 0.8, 0.04), OBJECT_COLOR)
-        meshcat.SetObject(f"{path}/leg", Box(0.08, 0.08, height), OBJECT_COLOR)
-        meshcat.SetTransform(f"{path}/leg", RigidTransform([0.0, 0.0, -height / 2]))
-    else:
+    """An object's shapes (`objects.OBJECT_MODELS`) in its frame; the library's
+    table stands at its pose (the top's centre) on a leg down to the floor."""
+    model = OBJECT_MODELS.get(name)
+    if model is None:
         meshcat.SetObject(f"{path}/body", Sphere(0.05), OBJECT_COLOR)
+        return
+    if name == "table":
+        top, leg = model.shape("top").geometry, model.shape("leg").geometry
+        height = float(pose[2])
+        meshcat.SetObject(f"{path}/top", Box(*top.size), OBJECT_COLOR)
+        meshcat.SetObject(f"{path}/leg", Box(*leg.size[:2], height), OBJECT_COLOR)
+        meshcat.SetTransform(f"{path}/leg", RigidTransform([0.0, 0.0, -height / 2]))
+        return
+    for shape in model.shapes:
+        g = shape.geometry
+        meshcat.SetObject(f"{path}/{shape.name}", _drake_shape(g), Rgba(*shape.color))
+        meshcat.SetTransform(f"{path}/{shape.name}", RigidTransform(RollPitchYaw(*g.rpy), list(g.position)))
+
+
+def _drake_shape(g):
+    if g.shape == "box":
+        return Box(*g.size)
+    if g.shape == "sphere":
+        return Sphere(g.size[0])
+    return Cylinder(*g.size)
 
 
 def _embodiment_of(clip: MotionClip) -> embodiment.Embodiment:

@@ -7,6 +7,7 @@ planted feet are pinned where they landed and the root height keeps the
 soles on the floor. Velocities are finite differences of the positions.
 """
 
+import copy
 from dataclasses import dataclass
 
 import numpy as np
@@ -14,17 +15,16 @@ import numpy as np
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.hands import COUPLED_JOINTS
 from hotu_drake.embodiment.landmarks import landmark_placements
+from hotu_drake.embodiment.spec import FINGERS, SIDES
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import landmarks_of
-from hotu_drake.motion.rotations import matrix_to_quat
 from hotu_drake.retarget import frames
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
 from hotu_drake.retarget.part_ik import PartProblem
 from hotu_drake.retarget.targets import BendPlane, Coupling, Direction, Landmarks, Orientation, Position
 from hotu_drake.retarget.tree import Tree, cross
+from hotu_drake.rotations import heading_rotation, matrix_to_quat
 
-FINGERS = ("thumb", "index", "middle", "ring", "little")
-SIDES = ("left", "right")
 LOCK_STEPS = 2  # leg-IK steps at most per planted foot and frame
 LOCK_TOLERANCE = 0.002  # m: a planted ankle this close to its anchor is left alone
 
@@ -300,7 +300,7 @@ class Retargeter:
         src_frames = _source_frames(src)
         contacts = {}
         if self.legged:  # the source's own foot contacts carry through human -> UDH -> robot
-            contacts = _foot_contacts_of(source, frames_count) or detect_foot_contacts(src, fps)
+            contacts = foot_contacts_of(source, frames_count) or detect_foot_contacts(src, fps)
         stream = RetargetStream(self, fps, src)
         out_q = np.zeros((frames_count, len(self.tree.joint_names)))
         out_rotation = np.zeros((frames_count, 3, 3))
@@ -406,6 +406,15 @@ class RetargetStream:
         self.height_offset = 0.0
         self.count = 0
 
+    def __deepcopy__(self, memo: dict) -> "RetargetStream":
+        """A copy of the stream's own state that shares the retargeter (its
+        programs are scratch space, rebuilt by nothing): how Drake copies a
+        stream held as abstract state."""
+        other = copy.copy(self)
+        other.q, other.q_previous = self.q.copy(), self.q_previous.copy()
+        other.anchors = {side: anchor.copy() for side, anchor in self.anchors.items()}
+        return other
+
     def push(
         self, src: dict[str, np.ndarray], src_frames: dict[str, np.ndarray] | None = None, planted=None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -420,7 +429,7 @@ class RetargetStream:
             root_rotation = src_frames[r.root_frame][0] @ self.root_rest.T
             root_position = src["pelvis"][0] * self.ratio - root_rotation @ self.pelvis_offset
         else:  # a planar base follows the pelvis over the floor
-            heading = frames.heading(src_frames["pelvis"][0])
+            heading = heading_rotation(src_frames["pelvis"][0])
             q[r.base] = [src["pelvis"][0][0], src["pelvis"][0][1], np.arctan2(heading[1, 0], heading[0, 0])]
             root_rotation, root_position = np.eye(3), np.zeros(3)
         root_position[2] += self.height_offset
@@ -436,7 +445,7 @@ class RetargetStream:
         return q.copy(), root_rotation, root_position
 
 
-def _foot_contacts_of(clip: MotionClip | None, frames_count: int) -> dict[str, np.ndarray]:
+def foot_contacts_of(clip: MotionClip | None, frames_count: int) -> dict[str, np.ndarray]:
     """A clip's recorded foot contacts, if it has them for both feet."""
     if clip is None or clip.contacts is None or clip.num_frames != frames_count:
         return {}

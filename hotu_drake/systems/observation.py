@@ -1,7 +1,7 @@
 """ObservationSystem: what a policy and the per-part discriminators see.
 
-From the plant state of one model it computes, in the heading frame (the
-root's yaw):
+From the plant state and body kinematics of one model it computes, in the
+heading frame (the root's yaw):
 
 - `observation`: root height, root rotation (tangent and normal axes, 6
   numbers), root linear and angular velocity, joint positions and
@@ -13,31 +13,28 @@ root's yaw):
   (`part_slices`).
 """
 
+from __future__ import annotations
+
 import numpy as np
+from pydrake.common.value import Value
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.multibody.tree import ModelInstanceIndex
+from pydrake.systems.framework import BasicVector, Context, DiagramBuilder, LeafSystem, ValueProducer
 
 from hotu_drake.embodiment import Embodiment
-from hotu_drake.systems.pd import actuated_state_indices
+from hotu_drake.embodiment.spec import FOOT_ROLES, HAND_ROLES
+from hotu_drake.plant import actuated_state_indices
+from hotu_drake.rotations import heading_rotation
 
 # Key bodies that belong to a part's AMP features (a hand with the wrist,
 # a foot with the ankle).
-PART_KEY_BODIES = {"wrist": ("left_hand", "right_hand"), "ankle": ("left_foot", "right_foot")}
+PART_KEY_BODIES = {"wrist": HAND_ROLES, "ankle": FOOT_ROLES}
 ROOT_FEATURES = 1 + 6 + 3 + 3  # height, tangent and normal, linear and angular velocity
-
-
-def heading_rotation(rotation: np.ndarray) -> np.ndarray:
-    """The yaw-only rotation that shares `rotation`'s heading."""
-    x = rotation[:, 0].copy()
-    x[2] = 0.0
-    n = np.linalg.norm(x)
-    x = np.array([1.0, 0.0, 0.0]) if n < 1e-9 else x / n
-    return np.column_stack([x, [-x[1], x[0], 0.0], [0.0, 0.0, 1.0]])
 
 
 def key_body_roles(embodiment: Embodiment) -> list[str]:
     """The hands and feet the observation tracks, in order."""
-    return [r for r in ("left_hand", "right_hand", "left_foot", "right_foot") if r in embodiment.key_bodies]
+    return [r for r in (*HAND_ROLES, *FOOT_ROLES) if r in embodiment.key_bodies]
 
 
 def observation_size(embodiment: Embodiment) -> int:
@@ -46,19 +43,30 @@ def observation_size(embodiment: Embodiment) -> int:
 
 
 class ObservationSystem(LeafSystem):
-    """Input port `state` (the model's [q; v]); output ports `observation`
-    and `amp_observation` (see the module docstring)."""
+    """Policy and AMP observations of one robot (see the module docstring).
 
-    def __init__(self, plant: MultibodyPlant, model, embodiment: Embodiment):
+    .. pydrake_system::
+
+        name: ObservationSystem
+        input_ports:
+        - state
+        - body_poses
+        - body_spatial_velocities
+        output_ports:
+        - observation
+        - amp_observation
+
+    `state` is the model's [q; v]; `body_poses` and `body_spatial_velocities`
+    are the plant's outputs of the same names. The features both outputs
+    share are a cache entry, computed once per state.
+    """
+
+    def __init__(self, plant: MultibodyPlant, model: ModelInstanceIndex, embodiment: Embodiment):
         super().__init__()
-        self._plant, self._model, self._embodiment = plant, model, embodiment
-        self._plant_context = plant.CreateDefaultContext()
-        self._memo = None  # (state, features) of the last state seen
         self._q, self._v = actuated_state_indices(plant, model, embodiment.joint_names)
-        self._root = plant.GetBodyByName(embodiment.spec.root.name, model)
+        self._root = int(plant.GetBodyByName(embodiment.spec.root.name, model).index())
         roles = key_body_roles(embodiment)
-        self._key_roles = roles
-        self._key_bodies = [plant.GetBodyByName(embodiment.key_bodies[r], model) for r in roles]
+        self._key_bodies = [int(plant.GetBodyByName(embodiment.key_bodies[r], model).index()) for r in roles]
         self.observation_size = observation_size(embodiment)
         self.part_slices: dict[str, slice] = {"root": slice(0, ROOT_FEATURES)}
         self._part_columns: list[tuple[str, list[int], list[int]]] = []
@@ -74,25 +82,25 @@ class ObservationSystem(LeafSystem):
             self._part_columns.append((part, columns, keys))
             start += size
         self.amp_size = start
-        self.DeclareVectorInputPort("state", plant.num_multibody_states(model))
+        self._state = self.DeclareVectorInputPort("state", plant.num_multibody_states(model))
+        self._poses = self.DeclareAbstractInputPort("body_poses", plant.get_body_poses_output_port().Allocate())
+        self._velocities = self.DeclareAbstractInputPort(
+            "body_spatial_velocities", plant.get_body_spatial_velocities_output_port().Allocate()
+        )
+        self._features = self.DeclareCacheEntry(
+            description="heading-frame features",
+            value_producer=ValueProducer(allocate=lambda: Value[object](None), calc=self._CalcFeatures),
+            prerequisites_of_calc={self.all_input_ports_ticket()},
+        )
         self.DeclareVectorOutputPort("observation", self.observation_size, self._CalcObservation)
         self.DeclareVectorOutputPort("amp_observation", self.amp_size, self._CalcAmpObservation)
 
-    def _features(self, context):
-        """Root features, joint positions and velocities, key bodies (heading
-        frame); computed once per state, as both outputs are usually read."""
-        state = self.get_input_port(0).Eval(context)
-        if self._memo is not None and np.array_equal(self._memo[0], state):
-            return self._memo[1]
-        features = self._compute_features(state)
-        self._memo = (state.copy(), features)
-        return features
-
-    def _compute_features(self, state: np.ndarray):
-        plant, model = self._plant, self._model
-        plant.SetPositionsAndVelocities(self._plant_context, model, state)
-        pose = plant.EvalBodyPoseInWorld(self._plant_context, self._root)
-        velocity = plant.EvalBodySpatialVelocityInWorld(self._plant_context, self._root)
+    def _CalcFeatures(self, context: Context, value) -> None:
+        """Root features, joint positions and velocities, key bodies (heading frame)."""
+        state = self._state.Eval(context)
+        poses = self._poses.Eval(context)
+        pose = poses[self._root]
+        velocity = self._velocities.Eval(context)[self._root]
         rotation = pose.rotation().matrix()
         heading = heading_rotation(rotation)
         local = heading.T @ rotation
@@ -105,19 +113,38 @@ class ObservationSystem(LeafSystem):
                 heading.T @ velocity.rotational(),
             ]
         )
-        keys = [
-            heading.T @ (plant.EvalBodyPoseInWorld(self._plant_context, body).translation() - pose.translation())
-            for body in self._key_bodies
-        ]
-        return root, state[self._q], state[self._v], np.array(keys).reshape(-1, 3)
+        origin = pose.translation()
+        keys = np.array([heading.T @ (poses[body].translation() - origin) for body in self._key_bodies]).reshape(-1, 3)
+        value.set_value((root, state[self._q], state[self._v], keys))
 
-    def _CalcObservation(self, context, output: BasicVector) -> None:
-        root, q, v, keys = self._features(context)
+    def _CalcObservation(self, context: Context, output: BasicVector) -> None:
+        root, q, v, keys = self._features.Eval(context)
         output.SetFromVector(np.concatenate([root, q, v, keys.ravel()]))
 
-    def _CalcAmpObservation(self, context, output: BasicVector) -> None:
-        root, q, v, keys = self._features(context)
+    def _CalcAmpObservation(self, context: Context, output: BasicVector) -> None:
+        root, q, v, keys = self._features.Eval(context)
         pieces = [root]
         for _, columns, key_rows in self._part_columns:
             pieces += [q[columns], v[columns], keys[key_rows].ravel()]
         output.SetFromVector(np.concatenate(pieces))
+
+    def fix_inputs_from_plant(self, context: Context, plant: MultibodyPlant, plant_context, model) -> None:
+        """Fix this system's inputs in `context` (its own, outside a diagram)
+        to the plant state in `plant_context`: how the AMP frames of clip
+        states are computed without stepping the simulation."""
+        self._state.FixValue(context, plant.GetPositionsAndVelocities(plant_context, model))
+        self._poses.FixValue(context, plant.get_body_poses_output_port().Eval(plant_context))
+        self._velocities.FixValue(context, plant.get_body_spatial_velocities_output_port().Eval(plant_context))
+
+
+def AddObservation(
+    builder: DiagramBuilder, plant: MultibodyPlant, model: ModelInstanceIndex, embodiment: Embodiment
+) -> ObservationSystem:
+    """Add an `ObservationSystem` named `observation`, wired to the plant."""
+    observation = builder.AddNamedSystem("observation", ObservationSystem(plant, model, embodiment))
+    builder.Connect(plant.get_state_output_port(model), observation.GetInputPort("state"))
+    builder.Connect(plant.get_body_poses_output_port(), observation.GetInputPort("body_poses"))
+    builder.Connect(
+        plant.get_body_spatial_velocities_output_port(), observation.GetInputPort("body_spatial_velocities")
+    )
+    return observation

@@ -10,14 +10,13 @@ where that body is at launch). After that it flies freely.
 from dataclasses import dataclass, field
 
 import numpy as np
+from pydrake.common.value import Value
 from pydrake.geometry import Box
 from pydrake.math import RigidTransform
 from pydrake.multibody.math import SpatialForce
 from pydrake.multibody.plant import CoulombFriction, ExternallyAppliedSpatialForce, MultibodyPlant
 from pydrake.multibody.tree import SpatialInertia, UnitInertia
-from pydrake.systems.framework import LeafSystem
-
-GRAVITY = 9.81
+from pydrake.systems.framework import Context, DiagramBuilder, LeafSystem
 
 
 @dataclass
@@ -35,6 +34,8 @@ class CubeLaunch:
 
 def add_perturbation_cubes(plant: MultibodyPlant, launches: list[CubeLaunch]) -> list:
     """Add one free cube per launch (before `Finalize`); returns their bodies."""
+    if not launches:
+        return []
     bodies = []
     cubes = plant.AddModelInstance("perturbation_cubes")
     for i, launch in enumerate(launches):
@@ -54,30 +55,44 @@ def place_perturbation_cubes(plant: MultibodyPlant, plant_context, bodies: list,
 
 
 class Perturbation(LeafSystem):
-    """Input port `body_poses` (the plant's); output port `spatial_forces`
-    (connect to the plant's applied spatial force input)."""
+    """Throws the cubes: holds each up until its launch, then one impulse.
+
+    .. pydrake_system::
+
+        name: Perturbation
+        input_ports:
+        - body_poses
+        output_ports:
+        - spatial_forces
+
+    `body_poses` is the plant's; `spatial_forces` goes to the plant's
+    applied spatial force input.
+    """
 
     def __init__(self, plant: MultibodyPlant, bodies: list, launches: list[CubeLaunch], target_body, time_step: float):
         super().__init__()
+        self._gravity = -float(plant.gravity_field().gravity_vector()[2])
         self._bodies = [b.index() for b in bodies]
         self._launches = launches
         self._target = target_body.index()
         self._dt = time_step
-        self.DeclareAbstractInputPort("body_poses", plant.get_body_poses_output_port().Allocate())
-        self.DeclareAbstractOutputPort("spatial_forces", lambda: _forces_value([]), self._CalcForces)
+        self._poses = self.DeclareAbstractInputPort("body_poses", plant.get_body_poses_output_port().Allocate())
+        self.DeclareAbstractOutputPort(
+            "spatial_forces", lambda: Value[list[ExternallyAppliedSpatialForce]]([]), self._CalcForces
+        )
 
-    def _CalcForces(self, context, output) -> None:
+    def _CalcForces(self, context: Context, output) -> None:
         now = context.get_time()
-        poses = self.get_input_port(0).Eval(context)
+        poses = self._poses.Eval(context)
         forces = []
         for index, launch in zip(self._bodies, self._launches):
             if now < launch.time - 1e-9:  # waiting: hold it up
-                force = np.array([0.0, 0.0, launch.mass * GRAVITY])
+                force = np.array([0.0, 0.0, launch.mass * self._gravity])
             elif now < launch.time + self._dt - 1e-9:  # this step: the throw
                 target = poses[int(self._target)].translation() + [0.0, 0.0, launch.aim_height]
                 aim = target - poses[int(index)].translation()
                 velocity = launch.speed * aim / max(np.linalg.norm(aim), 1e-9)
-                force = launch.mass * velocity / self._dt + np.array([0.0, 0.0, launch.mass * GRAVITY])
+                force = launch.mass * velocity / self._dt + np.array([0.0, 0.0, launch.mass * self._gravity])
             else:
                 continue
             applied = ExternallyAppliedSpatialForce()
@@ -88,7 +103,17 @@ class Perturbation(LeafSystem):
         output.set_value(forces)
 
 
-def _forces_value(forces):
-    from pydrake.common.value import Value
-
-    return Value[list[ExternallyAppliedSpatialForce]](forces)
+def AddPerturbation(
+    builder: DiagramBuilder,
+    plant: MultibodyPlant,
+    cubes: list,
+    launches: list[CubeLaunch],
+    target_body,
+    time_step: float,
+) -> Perturbation:
+    """Add a `Perturbation` named `perturbation` throwing `cubes` (added by
+    `add_perturbation_cubes`) at `target_body`; connect its
+    `spatial_forces` to the plant (`plant.connect_applied_forces`)."""
+    thrower = builder.AddNamedSystem("perturbation", Perturbation(plant, cubes, launches, target_body, time_step))
+    builder.Connect(plant.get_body_poses_output_port(), thrower.GetInputPort("body_poses"))
+    return thrower

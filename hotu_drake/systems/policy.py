@@ -1,24 +1,28 @@
-"""PolicySystem: runs a policy checkpoint at the control rate.
+"""PolicySystem: runs a policy network at the control rate.
 
-Input ports `observation` and one `latent_<part>` per functional part the
-policy was trained with; output port `action`, updated every control
-period (30 Hz by default) and held in between (zero-order hold).
+The network (`learning.policy.PolicyNetwork`, from a checkpoint that
+training writes) maps the observation and one latent per functional part
+to an action (normalised PD targets), updated every control period (30 Hz
+by default) and held in between (zero-order hold).
 """
+
+from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
 import torch
-from pydrake.systems.framework import LeafSystem
+from pydrake.systems.framework import Context, DiagramBuilder, LeafSystem, OutputPort
+from pydrake.systems.primitives import ConstantVectorSource
 
+from hotu_drake.cli import UserError
 from hotu_drake.embodiment import Embodiment
-from hotu_drake.learning.checkpoint import load_checkpoint
+from hotu_drake.embodiment.actions import standing_action
+from hotu_drake.learning.checkpoint import CheckpointError, load_checkpoint
 from hotu_drake.learning.policy import PolicyConfig, PolicyNetwork
 from hotu_drake.systems.observation import observation_size
 
 CONTROL_RATE = 30.0  # Hz
-
-
 LATENT_SIZE = 16  # per functional part
 
 
@@ -27,44 +31,91 @@ def policy_for(embodiment: Embodiment, latent_size: int = LATENT_SIZE, seed: int
     one action per joint, one latent per functional part. Its output layer
     starts small around the standing pose's action, so an untrained policy
     holds the robot roughly upright (training starts here)."""
-    from hotu_drake.systems.pd import ActionScaling
-
     torch.manual_seed(seed)
     parts = {part: latent_size for part, joints in embodiment.parts.items() if joints}
     config = PolicyConfig(observation_size(embodiment), len(embodiment.joint_names), parts)
     network = PolicyNetwork(config)
-    standing = ActionScaling.for_embodiment(embodiment).to_action(embodiment.standing_pose)
+    standing = np.clip(standing_action(embodiment), -0.99, 0.99)
     output = network.body[-1]
     with torch.no_grad():
         output.weight.mul_(0.01)
-        output.bias.copy_(torch.atanh(torch.as_tensor(np.clip(standing, -0.99, 0.99), dtype=torch.float32)))
+        output.bias.copy_(torch.atanh(torch.as_tensor(standing, dtype=torch.float32)))
+    return network
+
+
+def load_policy(path: str | Path, embodiment: Embodiment) -> PolicyNetwork:
+    """The network of a checkpoint, checked against `embodiment`; a file
+    that does not fit raises `UserError` naming it."""
+    try:
+        network, meta = load_checkpoint(path)
+    except CheckpointError as error:
+        raise UserError(str(error)) from None
+    if (meta.get("embodiment"), meta.get("hands")) != (embodiment.name, embodiment.hands):
+        raise UserError(
+            f"{path}: the policy drives {meta.get('embodiment')} hands={meta.get('hands')}, "
+            f"not {embodiment.name} hands={embodiment.hands}"
+        )
+    if network.config.action_size != len(embodiment.joint_names):
+        actions, joints = network.config.action_size, len(embodiment.joint_names)
+        raise UserError(f"{path}: the policy has {actions} actions, {embodiment.name} has {joints} joints")
     return network
 
 
 class PolicySystem(LeafSystem):
+    """A policy network sampled at the control rate.
+
+    .. pydrake_system::
+
+        name: PolicySystem
+        input_ports:
+        - observation
+        - latent_<part> (one per functional part of the network)
+        output_ports:
+        - action
+
+    `action` is discrete state, updated every control period and served
+    from the state by Drake itself (no Python call per plant step).
+    """
+
     def __init__(self, network: PolicyNetwork, control_rate: float = CONTROL_RATE):
         super().__init__()
         self._network = network.eval()
         config = network.config
-        self.DeclareVectorInputPort("observation", config.observation_size)
+        self._observation = self.DeclareVectorInputPort("observation", config.observation_size)
         self._latent_ports = {
             part: self.DeclareVectorInputPort(f"latent_{part}", size) for part, size in config.latent_sizes.items()
         }
         self._action = self.DeclareDiscreteState(config.action_size)
         self.DeclarePeriodicDiscreteUpdateEvent(1.0 / control_rate, 0.0, self._Act)
-        # Served from the discrete state by Drake itself: no Python call per plant step.
         self.DeclareStateOutputPort("action", self._action)
 
     @staticmethod
-    def from_checkpoint(path: str | Path, control_rate: float = CONTROL_RATE) -> "PolicySystem":
+    def from_checkpoint(path: str | Path, control_rate: float = CONTROL_RATE) -> PolicySystem:
         network, _ = load_checkpoint(path)
         return PolicySystem(network, control_rate)
 
-    def _Act(self, context, discrete_state) -> None:
-        observation = torch.as_tensor(self.get_input_port(0).Eval(context), dtype=torch.float32)
+    def latent_input_ports(self) -> dict:
+        """Functional part -> its latent input port."""
+        return dict(self._latent_ports)
+
+    def _Act(self, context: Context, discrete_state) -> None:
+        observation = torch.as_tensor(self._observation.Eval(context), dtype=torch.float32)
         latents = {
             part: torch.as_tensor(port.Eval(context), dtype=torch.float32) for part, port in self._latent_ports.items()
         }
         with torch.no_grad():
             action = self._network(observation, latents).numpy().astype(np.float64)
         discrete_state.set_value(self._action, action)
+
+
+def AddPolicy(
+    builder: DiagramBuilder, network: PolicyNetwork, observation: OutputPort, control_rate: float = CONTROL_RATE
+) -> PolicySystem:
+    """Add a `PolicySystem` named `policy` fed by `observation`; its skill
+    latents are held at zero (`latent_<part>_source`) until skills are composed."""
+    policy = builder.AddNamedSystem("policy", PolicySystem(network, control_rate))
+    builder.Connect(observation, policy.GetInputPort("observation"))
+    for port in policy.latent_input_ports().values():
+        source = builder.AddNamedSystem(f"{port.get_name()}_source", ConstantVectorSource(np.zeros(port.size())))
+        builder.Connect(source.get_output_port(), port)
+    return policy

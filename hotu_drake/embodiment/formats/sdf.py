@@ -14,7 +14,8 @@ from hotu_drake.embodiment.formats.common import color, fmt, header, vec
 from hotu_drake.embodiment.spec import EmbodimentSpec, Geometry
 
 
-def _geometry(g: Geometry) -> str:
+def geometry_sdf(g: Geometry) -> str:
+    """The SDFormat `<geometry>` content of a primitive."""
     if g.shape == "box":
         return f"<box><size>{vec(g.size)}</size></box>"
     if g.shape == "sphere":
@@ -61,7 +62,7 @@ def to_sdf(spec: EmbodimentSpec, controller_gains: bool = True) -> str:
             out += [
                 f'      <visual name="{link.name}_visual_{i}">',
                 f"        <pose>{vec(g.position)} {vec(g.rpy)}</pose>",
-                f"        <geometry>{_geometry(g)}</geometry>",
+                f"        <geometry>{geometry_sdf(g)}</geometry>",
                 f"        <material><diffuse>{rgba}</diffuse></material>",
                 "      </visual>",
             ]
@@ -69,7 +70,7 @@ def to_sdf(spec: EmbodimentSpec, controller_gains: bool = True) -> str:
             out += [
                 f'      <collision name="{link.name}_collision_{i}">',
                 f"        <pose>{vec(g.position)} {vec(g.rpy)}</pose>",
-                f"        <geometry>{_geometry(g)}</geometry>",
+                f"        <geometry>{geometry_sdf(g)}</geometry>",
                 "      </collision>",
             ]
         out.append("    </link>")

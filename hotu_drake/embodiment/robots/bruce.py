@@ -10,8 +10,8 @@ has no fingers, so its `hands="none"` variant equals the full one.
 
 from __future__ import annotations
 
-from hotu_drake.embodiment.builder import Dof, Drive, SpecBuilder, pick
-from hotu_drake.embodiment.spec import EmbodimentSpec, box, capsule, sphere
+from hotu_drake.embodiment.builder import Dof, Drive, SpecBuilder, key_bodies, mirrored_pose, pick
+from hotu_drake.embodiment.spec import SIDES, EmbodimentSpec, box, capsule, sphere
 
 X, Y, Z = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
 
@@ -25,7 +25,7 @@ def build(hands: str = "full") -> EmbodimentSpec:
     leg = Drive(10.0, 15.0, 60.0, 2.0, armature=0.002)
     ankle = Drive(10.0, 15.0, 30.0, 1.0, armature=0.002)
     arm = Drive(3.0, 10.0, 5.0, 0.2, armature=0.001)
-    for side in ("left", "right"):
+    for side in SIDES:
         sy = 1.0 if side == "left" else -1.0
         b.chain(
             "base", f"{side}_hip_roll_link", (0.0292, sy * 0.0759, -0.0398),
@@ -50,7 +50,7 @@ def build(hands: str = "full") -> EmbodimentSpec:
             f"{side}_shank", f"{side}_foot", (0, 0, -0.1999), [Dof("y", Y, -1.0, 1.0)],
             ankle, "ankle", 0.028, foot, line_contact, side,
         )
-    for side in ("left", "right"):
+    for side in SIDES:
         sy = 1.0 if side == "left" else -1.0
         b.chain(
             "base", f"{side}_shoulder_link", (0.0292, sy * 0.1238, 0.1530),
@@ -67,24 +67,16 @@ def build(hands: str = "full") -> EmbodimentSpec:
             [Dof("z", Z, -1.57, 1.57)], arm, "elbow", 0.052, forearm, forearm, side,
             prefix=f"{side}_elbow",
         )
-    pose: dict[str, float] = {}
-    for side in ("left", "right"):
-        pose |= {
+    standing = mirrored_pose(
+        lambda side: {
             f"{side}_hip_y": -0.35,
             f"{side}_knee_y": 0.7,
             f"{side}_ankle_y": -0.35,
             f"{side}_shoulder_x": pick(side, 1.4, -1.4),
         }
+    )
     return b.build(
-        key_bodies={
-            "pelvis": "base",
-            "torso": "base",
-            "head": "base",
-            "left_hand": "left_hand",
-            "right_hand": "right_hand",
-            "left_foot": "left_foot",
-            "right_foot": "right_foot",
-        },
-        standing_pose=pose,
+        key_bodies=key_bodies("base", "base", "base"),
+        standing_pose=standing,
         notes="B2 masses; leg limits, drives and foot geometry estimated",
     )

@@ -14,9 +14,10 @@ import math
 
 import numpy as np
 
-from hotu_drake.embodiment.builder import Dof, Drive, SpecBuilder, mirror_axis, mirror_point
+from hotu_drake.embodiment.builder import Dof, Drive, SpecBuilder, key_bodies, mirror_axis, mirror_point, mirrored_pose
 from hotu_drake.embodiment.hands import QBHAND_PALM_MASS, HandFrame, add_qbhand, qbhand_palm, register_hand
-from hotu_drake.embodiment.spec import BASE_PART, EmbodimentSpec, box, capsule, cylinder, sphere
+from hotu_drake.embodiment.spec import BASE_PART, SIDES, EmbodimentSpec, box, capsule, cylinder, sphere
+from hotu_drake.rotations import rot_x
 
 X, Y, Z = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
 TORSO_END = np.array([0.4875, 0.0, 1.0026])
@@ -38,11 +39,6 @@ _PANDA_RADII = (0.06, 0.06, 0.06, 0.06, 0.05, 0.05, 0.05)
 _FLANGE = 0.107
 
 
-def _rot_x(deg: float) -> np.ndarray:
-    c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
-    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
-
-
 def left_panda_frames() -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray, np.ndarray]:
     """World joint positions, joint axes, flange position and rotation of the left arm."""
     z0 = np.array([0.255, 0.966, 0.045])
@@ -55,7 +51,7 @@ def left_panda_frames() -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray,
     points, axes = [], []
     for offset, rot_deg, *_ in _PANDA:
         position = position + rotation @ np.asarray(offset, dtype=float)
-        rotation = rotation @ _rot_x(rot_deg)
+        rotation = rotation @ rot_x(np.radians(rot_deg))
         points.append(position)
         axes.append(rotation[:, 2].copy())
     flange = position + rotation @ np.array([0.0, 0.0, _FLANGE])
@@ -117,7 +113,7 @@ def build(hands: str = "full") -> EmbodimentSpec:
 
     points, axes, flange, flange_rotation = left_panda_frames()
     hand_frame = HandFrame(_M @ flange_rotation @ _M)  # right-hand frame
-    for side in ("left", "right"):
+    for side in SIDES:
         def world(p: np.ndarray, side: str = side) -> np.ndarray:
             return p if side == "left" else mirror_point(p)
 
@@ -153,23 +149,17 @@ def build(hands: str = "full") -> EmbodimentSpec:
         if hands == "full":
             add_qbhand(b, side, f"{side}_hand", hand_frame, mount=world(flange))
 
-    pose: dict[str, float] = {}
-    for side in ("left", "right"):
-        pose |= {
+    standing = mirrored_pose(
+        lambda side: {
             f"{side}_shoulder_1": 0.4,
             f"{side}_elbow_0": -1.6,
             f"{side}_wrist_1": 1.6,
             f"{side}_wrist_2": 0.785,
         }
+    )
     return b.build(
-        key_bodies={
-            "pelvis": "base",
-            "torso": "torso_end",
-            "head": "head",
-            "left_hand": "left_hand",
-            "right_hand": "right_hand",
-        },
-        standing_pose=pose,
+        key_bodies=key_bodies("base", "torso_end", "head", legs=False),
+        standing_pose=standing,
         floating_base=False,
         notes="planar base (x, y, yaw); torso parallelogram mimics not modelled",
     )

@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from hotu_drake.embodiment.builder import Dof, Drive, SpecBuilder, mirror_limits
+from hotu_drake.embodiment.builder import Dof, Drive, SpecBuilder, key_bodies, mirror_limits, mirrored_pose
 from hotu_drake.embodiment.hands import QBHAND_PALM_MASS, HandFrame, add_qbhand, qbhand_palm, register_hand
-from hotu_drake.embodiment.spec import EmbodimentSpec, box, capsule, cylinder, sphere
+from hotu_drake.embodiment.spec import SIDES, EmbodimentSpec, box, capsule, cylinder, sphere
 
 X, Y, Z = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
 # Hand frame z (fingers) -> world +x, palm normal +y, thumb on top.
@@ -41,7 +41,7 @@ def build(hands: str = "full") -> EmbodimentSpec:
         "pelvis", "torso", (0, 0, 0), [Dof("z", Z, -2.35, 2.35)],
         _drive(200, 23, 600, 12), "torso", 17.789, torso_visuals, [torso_visuals[0], torso_visuals[2]],
     )
-    for side in ("left", "right"):
+    for side in SIDES:
         sy = 1.0 if side == "left" else -1.0
         b.chain(
             "torso", f"{side}_shoulder_pitch_link", (0.0055, sy * 0.1554, 0.43),
@@ -84,7 +84,7 @@ def build(hands: str = "full") -> EmbodimentSpec:
         if hands == "full":
             add_qbhand(b, side, f"{side}_hand", _HAND_FRAME)
 
-    for side in ("left", "right"):
+    for side in SIDES:
         sy = 1.0 if side == "left" else -1.0
         b.chain(
             "pelvis", f"{side}_hip_yaw_link", (0, sy * 0.0875, -0.1742),
@@ -117,19 +117,11 @@ def build(hands: str = "full") -> EmbodimentSpec:
             [Dof("y", Y, -0.87, 0.52)], _drive(40, 9, 800, 20), "ankle", 0.446, foot_visuals, corners, side,
         )
 
-    pose: dict[str, float] = {}
-    for side in ("left", "right"):
-        pose |= {f"{side}_hip_y": -0.1, f"{side}_knee_y": 0.3, f"{side}_ankle_y": -0.2}
+    standing = mirrored_pose(
+        lambda side: {f"{side}_hip_y": -0.1, f"{side}_knee_y": 0.3, f"{side}_ankle_y": -0.2}
+    )
     return b.build(
-        key_bodies={
-            "pelvis": "pelvis",
-            "torso": "torso",
-            "head": "torso",
-            "left_hand": "left_hand",
-            "right_hand": "right_hand",
-            "left_foot": "left_foot",
-            "right_foot": "right_foot",
-        },
-        standing_pose=pose,
+        key_bodies=key_bodies("pelvis", "torso", "torso"),
+        standing_pose=standing,
         notes="H1a masses; wrist joints and qb SoftHands as in Rofunc's H1 (H1c)",
     )

@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from hotu_drake.embodiment.builder import Dof, Drive, SpecBuilder, mirror_limits, pick
+from hotu_drake.embodiment.builder import Dof, Drive, SpecBuilder, key_bodies, mirror_limits, mirrored_pose, pick
 from hotu_drake.embodiment.hands import QBHAND_PALM_MASS, HandFrame, add_qbhand, qbhand_palm, register_hand
-from hotu_drake.embodiment.spec import EmbodimentSpec, box, capsule, sphere
+from hotu_drake.embodiment.spec import SIDES, EmbodimentSpec, box, capsule, sphere
 
 X, Y, Z = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
 _HAND_FRAME = HandFrame(np.diag([-1.0, 1.0, -1.0]))
@@ -41,7 +41,7 @@ def build(hands: str = "full") -> EmbodimentSpec:
         Drive(31.2, 7.85, 200, 8), "torso", 3.0, [sacrum], [sacrum],
     )
     shoulder = Drive(54.67, 4.58, 80, 3)
-    for side in ("left", "right"):
+    for side in SIDES:
         sy = 1.0 if side == "left" else -1.0
         b.chain(
             "torso", f"{side}_scapula", (-0.0014, sy * 0.1587, -0.0466),
@@ -82,7 +82,7 @@ def build(hands: str = "full") -> EmbodimentSpec:
         if hands == "full":
             add_qbhand(b, side, f"{side}_hand", _HAND_FRAME)
 
-    for side in ("left", "right"):
+    for side in SIDES:
         sy = 1.0 if side == "left" else -1.0
         hip = Drive(72, 9.37, 300, 10)
         b.chain(
@@ -114,25 +114,17 @@ def build(hands: str = "full") -> EmbodimentSpec:
             Drive(18, 10.26, 400, 10), "ankle", 0.6, [foot], corners, side,
         )
 
-    pose: dict[str, float] = {}
-    for side in ("left", "right"):
-        pose |= {
+    standing = mirrored_pose(
+        lambda side: {
             f"{side}_hip_y": -0.15,
             f"{side}_knee_y": 0.30,
             f"{side}_ankle_y": -0.15,
             f"{side}_shoulder_x": pick(side, -0.1, 0.1),
             f"{side}_elbow_y": -0.2,
         }
+    )
     return b.build(
-        key_bodies={
-            "pelvis": "sacrum",
-            "torso": "torso",
-            "head": "head",
-            "left_hand": "left_hand",
-            "right_hand": "right_hand",
-            "left_foot": "left_foot",
-            "right_foot": "right_foot",
-        },
-        standing_pose=pose,
+        key_bodies=key_bodies("sacrum", "torso", "head"),
+        standing_pose=standing,
         notes="root is the upper torso; per-link masses estimated (25.9 kg total)",
     )

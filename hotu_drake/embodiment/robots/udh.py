@@ -16,9 +16,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from hotu_drake.embodiment.builder import Dof, Drive, SpecBuilder, mirror_limits, pick
+from hotu_drake.embodiment.builder import Dof, Drive, SpecBuilder, key_bodies, mirror_limits, mirrored_pose, pick
 from hotu_drake.embodiment.hands import QBHAND_PALM_MASS, HandFrame, add_qbhand, qbhand_palm, register_hand
-from hotu_drake.embodiment.spec import EmbodimentSpec, box, capsule, sphere
+from hotu_drake.embodiment.spec import SIDES, EmbodimentSpec, box, capsule, sphere
 
 NOMINAL_HEIGHT = 1.61
 NOMINAL_MASS = 48.9  # body without hands (calc from R1 densities)
@@ -69,7 +69,7 @@ def build(hands: str = "full", height: float = NOMINAL_HEIGHT, mass: float | Non
         [Dof("x", X, -0.873, 0.873), Dof("y", Y, -0.698, 1.047), Dof("z", Z, -0.785, 0.785)],
         drive(20, 50, 5, 0.017), "neck", 3.88 * m, head, head,
     )
-    for side in ("left", "right"):
+    for side in SIDES:
         sy = 1.0 if side == "left" else -1.0
         upper_arm = [capsule(0.045 * s, L(0, 0, -0.05), L(0, 0, -0.23))]
         b.chain(
@@ -102,7 +102,7 @@ def build(hands: str = "full", height: float = NOMINAL_HEIGHT, mass: float | Non
         if hands == "full":
             add_qbhand(b, side, f"{side}_hand", _HAND_FRAME)
 
-    for side in ("left", "right"):
+    for side in SIDES:
         sy = 1.0 if side == "left" else -1.0
         thigh = [capsule(0.055 * s, L(0, 0, -0.06), L(0, 0, -0.36))]
         b.chain(
@@ -131,25 +131,17 @@ def build(hands: str = "full", height: float = NOMINAL_HEIGHT, mass: float | Non
             drive(50, 800, 80, 0.01), "ankle", 1.0 * m, [foot_box], corners, side,
         )
 
-    pose: dict[str, float] = {}
-    for side in ("left", "right"):
-        pose |= {
+    standing = mirrored_pose(
+        lambda side: {
             f"{side}_hip_y": -0.15,
             f"{side}_knee_y": 0.30,
             f"{side}_ankle_y": -0.15,
             f"{side}_shoulder_x": pick(side, -0.12, 0.12),
             f"{side}_elbow_y": -0.25,
         }
+    )
     return b.build(
-        key_bodies={
-            "pelvis": "pelvis",
-            "torso": "torso",
-            "head": "head",
-            "left_hand": "left_hand",
-            "right_hand": "right_hand",
-            "left_foot": "left_foot",
-            "right_foot": "right_foot",
-        },
-        standing_pose=pose,
+        key_bodies=key_bodies("pelvis", "torso", "head"),
+        standing_pose=standing,
         notes=f"height {height:.3f} m, body mass {body_mass:.2f} kg (no hands)",
     )

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from hotu_drake.embodiment.builder import Dof, Drive, SpecBuilder, pick
+from hotu_drake.embodiment.builder import Dof, Drive, SpecBuilder, key_bodies, mirrored_pose, pick
 from hotu_drake.embodiment.hands import WALKER_PALM_MASS, HandFrame, add_walker_hand, register_hand, walker_palm
-from hotu_drake.embodiment.spec import EmbodimentSpec, box, capsule, sphere
+from hotu_drake.embodiment.spec import SIDES, EmbodimentSpec, box, capsule, sphere
 
 X, Y, Z = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
 KP = 870.0  # W2/W3: position actuators kp 870 on every joint
@@ -40,7 +40,7 @@ def build(hands: str = "full") -> EmbodimentSpec:
         "torso", "head", (0, -0.0002, 0.0985), [Dof("z", Z, -1.5708, 1.5708), Dof("y", Y, -0.2, 0.2)],
         Drive(10, 1.8, KP, 5), "neck", 0.11 + 2.003 + 1.208, head, head,
     )
-    for side in ("left", "right"):
+    for side in SIDES:
         sy = 1.0 if side == "left" else -1.0
         j3 = np.array(pick(side, (0, -0.0597, -0.2216), (0, 0.0602, -0.2205)))
         b.chain(
@@ -86,7 +86,7 @@ def build(hands: str = "full") -> EmbodimentSpec:
         if hands == "full":
             add_walker_hand(b, side, f"{side}_hand", _HAND_FRAME)
 
-    for side in ("left", "right"):
+    for side in SIDES:
         sy = 1.0 if side == "left" else -1.0
         b.chain(
             "torso", f"{side}_hip_yaw_link", (0, sy * 0.110, -0.4371), [Dof("z", Z, -1.0472, 1.0472)],
@@ -115,19 +115,11 @@ def build(hands: str = "full") -> EmbodimentSpec:
             Drive(50, 3.142, KP, 5), "ankle", 0.684 + 1.356, [foot, *ankle_link], corners, side,
         )
 
-    pose: dict[str, float] = {}
-    for side in ("left", "right"):
-        pose |= {f"{side}_hip_y": -0.2, f"{side}_knee_y": 0.4, f"{side}_ankle_y": -0.2}
+    standing = mirrored_pose(
+        lambda side: {f"{side}_hip_y": -0.2, f"{side}_knee_y": 0.4, f"{side}_ankle_y": -0.2}
+    )
     return b.build(
-        key_bodies={
-            "pelvis": "torso",
-            "torso": "torso",
-            "head": "head",
-            "left_hand": "left_hand",
-            "right_hand": "right_hand",
-            "left_foot": "left_foot",
-            "right_foot": "right_foot",
-        },
-        standing_pose=pose,
+        key_bodies=key_bodies("torso", "torso", "head"),
+        standing_pose=standing,
         notes="W4 masses; leg efforts raised to stand (est.); shapes estimated",
     )

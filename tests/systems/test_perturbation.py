@@ -7,15 +7,24 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from hotu_drake import embodiment
-from hotu_drake.diagrams import PlantSettings, add_ground
-from hotu_drake.systems.perturbation import CubeLaunch, Perturbation, add_perturbation_cubes, place_perturbation_cubes
+from hotu_drake.plant import add_ground
+from hotu_drake.scenario import default_plant_config
+from hotu_drake.systems.perturbation import (
+    AddPerturbation,
+    CubeLaunch,
+    Perturbation,
+    add_perturbation_cubes,
+    place_perturbation_cubes,
+)
+from tests.systems.conftest import make_scene
+from tests.systems.ports import assert_inputs_wired, assert_port_contract
 
 
 def test_cube_waits_then_flies_at_the_robot_and_hits_it():
     h1 = embodiment.load("h1", "none")
-    settings = PlantSettings()
+    settings = default_plant_config()
     builder = DiagramBuilder()
-    plant, _ = AddMultibodyPlant(settings.plant_config(), builder)
+    plant, _ = AddMultibodyPlant(settings, builder)
     model = h1.add_to_plant(plant)
     add_ground(plant)
     launches = [CubeLaunch(time=0.5, start=(1.2, 0.0, 1.3), speed=5.0, mass=2.0, aim_height=0.3)]
@@ -23,8 +32,8 @@ def test_cube_waits_then_flies_at_the_robot_and_hits_it():
     plant.Finalize()
     torso = plant.GetBodyByName("torso", model)
     perturbation = builder.AddSystem(Perturbation(plant, [cube], launches, torso, settings.time_step))
-    builder.Connect(plant.get_body_poses_output_port(), perturbation.get_input_port(0))
-    builder.Connect(perturbation.get_output_port(0), plant.get_applied_spatial_force_input_port())
+    builder.Connect(plant.get_body_poses_output_port(), perturbation.GetInputPort("body_poses"))
+    builder.Connect(perturbation.GetOutputPort("spatial_forces"), plant.get_applied_spatial_force_input_port())
     diagram = builder.Build()
     simulator = Simulator(diagram)
     context = simulator.get_mutable_context()
@@ -52,3 +61,15 @@ def test_cube_waits_then_flies_at_the_robot_and_hits_it():
                 other = info.bodyB_index() if info.bodyA_index() == cube.index() else info.bodyA_index()
                 hit = hit or plant.get_body(other).model_instance() == model
     assert hit
+
+
+def test_port_contract():
+    s = make_scene(finalize=False)
+    launches = [CubeLaunch()]
+    cubes = add_perturbation_cubes(s.plant, launches)
+    s.plant.Finalize()
+    torso = s.plant.GetBodyByName(s.embodiment.key_bodies["torso"], s.model)
+    thrower = AddPerturbation(s.builder, s.plant, cubes, launches, torso, 0.005)
+    assert_inputs_wired(s.builder, thrower)
+    assert_port_contract(thrower, {"body_poses": None}, {"spatial_forces": None})
+    assert add_perturbation_cubes(s.plant, []) == []  # no launches: no cubes, no model instance

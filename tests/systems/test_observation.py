@@ -7,7 +7,8 @@ from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.framework import DiagramBuilder
 
 from hotu_drake import embodiment
-from hotu_drake.systems.observation import ROOT_FEATURES, ObservationSystem
+from hotu_drake.systems.observation import ROOT_FEATURES, AddObservation, ObservationSystem, observation_size
+from tests.systems.ports import assert_inputs_wired, assert_port_contract
 
 
 def _system(name: str):
@@ -26,7 +27,7 @@ def _evaluate(plant, model, system, root: RigidTransform, q: np.ndarray, v_root=
     plant.SetPositions(context, model, np.concatenate([plant.GetPositions(context, model)[:7], q]))
     plant.SetVelocities(context, model, np.concatenate([np.asarray(v_root), np.zeros(len(q))]))
     system_context = system.CreateDefaultContext()
-    system.get_input_port(0).FixValue(system_context, plant.GetPositionsAndVelocities(context, model))
+    system.fix_inputs_from_plant(system_context, plant, context, model)
     return system.GetOutputPort("observation").Eval(system_context), system.GetOutputPort("amp_observation").Eval(
         system_context
     )
@@ -61,3 +62,16 @@ def test_each_part_slice_holds_that_part():
     assert sizes == system.amp_size == amp.size
     # Hands and feet positions ride with the wrist and ankle parts.
     assert system.part_slices["ankle"].stop - system.part_slices["ankle"].start == 2 * 6 + 3 * 2
+
+
+def test_port_contract(bruce):
+    s = bruce
+    system = AddObservation(s.builder, s.plant, s.model, s.embodiment)
+    assert_inputs_wired(s.builder, system)
+    inputs = {"state": s.plant.num_multibody_states(s.model), "body_poses": None, "body_spatial_velocities": None}
+    outputs = {"observation": observation_size(s.embodiment), "amp_observation": system.amp_size}
+    assert_port_contract(system, inputs, outputs)
+    diagram = s.builder.Build()
+    context = system.GetMyContextFromRoot(diagram.CreateDefaultContext())
+    observation = system.GetOutputPort("observation").Eval(context)
+    assert observation.shape == (outputs["observation"],) and np.all(np.isfinite(observation))

@@ -1,7 +1,109 @@
-"""Quaternion (w, x, y, z) and rotation-matrix helpers, vectorised over frames,
-and finite-difference velocities consistent with sampled positions."""
+"""Rotations, vectorised over frames: quaternions (w, x, y, z) and matrices,
+elementary rotations, Euler angles, the heading (yaw) frame, and
+finite-difference velocities consistent with sampled positions.
+
+The one home of these helpers for every stage (embodiments, motions,
+retargeting, systems); it imports nothing but numpy.
+"""
 
 import numpy as np
+
+
+def normalize(v: np.ndarray, floor: float = 1e-12) -> np.ndarray:
+    """Unit vectors along the last axis (vectors shorter than `floor` are divided by `floor`)."""
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), floor)
+
+
+def wrap(angle: np.ndarray) -> np.ndarray:
+    """Angles wrapped to (-pi, pi]."""
+    return np.pi - np.mod(np.pi - np.asarray(angle, dtype=float), 2 * np.pi)
+
+
+def _axis_rotation(angle, i: int, j: int) -> np.ndarray:
+    angle = np.asarray(angle, dtype=float)
+    c, s = np.cos(angle), np.sin(angle)
+    r = np.zeros(angle.shape + (3, 3))
+    k = 3 - i - j
+    r[..., k, k] = 1.0
+    r[..., i, i] = r[..., j, j] = c
+    r[..., i, j], r[..., j, i] = -s, s
+    return r
+
+
+def rot_x(angle) -> np.ndarray:
+    """Rotations about x by `angle` (rad), shape (..., 3, 3)."""
+    return _axis_rotation(angle, 1, 2)
+
+
+def rot_y(angle) -> np.ndarray:
+    """Rotations about y by `angle` (rad), shape (..., 3, 3)."""
+    return _axis_rotation(angle, 2, 0)
+
+
+def rot_z(angle) -> np.ndarray:
+    """Rotations about z by `angle` (rad), shape (..., 3, 3)."""
+    return _axis_rotation(angle, 0, 1)
+
+
+def heading_rotation(rotation: np.ndarray) -> np.ndarray:
+    """Yaw-only rotations (..., 3, 3) sharing the heading of `rotation`'s x axis
+    (the heading frame of AMP observations and of root trajectories). A
+    rotation whose x axis points straight up or down gets the identity."""
+    x = np.array(rotation, dtype=float)[..., :, 0]
+    x[..., 2] = 0.0
+    n = np.linalg.norm(x, axis=-1, keepdims=True)
+    x = np.where(n < 1e-9, np.array([1.0, 0.0, 0.0]), x / np.maximum(n, 1e-9))
+    zero, one = np.zeros(x.shape[:-1]), np.ones(x.shape[:-1])
+    y = np.stack([-x[..., 1], x[..., 0], zero], axis=-1)
+    z = np.stack([zero, zero, one], axis=-1)
+    return np.stack([x, y, z], axis=-1)
+
+
+def heading_yaw(rotation: np.ndarray) -> np.ndarray:
+    """Yaw angles (...,) of the headings of rotations (..., 3, 3), in (-pi, pi]."""
+    r = np.asarray(rotation, dtype=float)
+    return np.arctan2(r[..., 1, 0], r[..., 0, 0])
+
+
+def euler_xyz(rotations: np.ndarray) -> np.ndarray:
+    """(T, 3) angles (a, b, c) with R = Rx(a) Ry(b) Rz(c), continuous over frames."""
+    r = np.asarray(rotations, dtype=float)
+    b = np.arcsin(np.clip(r[:, 0, 2], -1.0, 1.0))
+    locked = np.abs(r[:, 0, 2]) > 1.0 - 1e-10
+    a = np.where(locked, np.arctan2(np.sign(r[:, 0, 2]) * r[:, 1, 0], r[:, 1, 1]), np.arctan2(-r[:, 1, 2], r[:, 2, 2]))
+    c = np.where(locked, 0.0, np.arctan2(-r[:, 0, 1], r[:, 0, 0]))
+    return np.stack([np.unwrap(a), b, np.unwrap(c)], axis=1)
+
+
+def euler_xyz_within_limits(r: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """Angles (a, b, c) with r = Rx(a) Ry(b) Rz(c), the order of the UDH's
+    3-DoF joints, for a trajectory of rotations (T, 3, 3).
+
+    Every rotation has two such solutions; the trajectory takes the one
+    that stays within the joint limits and continuous in time (a dynamic
+    programme over the two branches), so passing near gimbal lock does not
+    flip the joint by half a turn.
+    """
+    a1 = np.arctan2(-r[..., 1, 2], r[..., 2, 2])
+    b1 = np.arcsin(np.clip(r[..., 0, 2], -1.0, 1.0))
+    c1 = np.arctan2(-r[..., 0, 1], r[..., 0, 0])
+    first = np.stack([a1, b1, c1], -1)
+    second = wrap(first + np.array([np.pi, 0.0, np.pi]))
+    second[..., 1] = wrap(np.pi - b1)
+    branches = np.stack([first, second])  # (2, T, 3)
+    violation = (np.maximum(lower - branches, 0.0) + np.maximum(branches - upper, 0.0)).sum(-1)
+    cost = 10.0 * violation + 0.01 * np.abs(branches).sum(-1)  # (2, T)
+    jump = np.abs(wrap(branches[:, None, 1:] - branches[None, :, :-1])).sum(-1)  # (to, from, T - 1)
+    total, back = cost[:, 0].copy(), np.zeros((len(first), 2), dtype=int)
+    for t in range(1, len(first)):
+        options = total[None, :] + jump[:, :, t - 1]
+        back[t] = np.argmin(options, axis=1)
+        total = cost[:, t] + options[[0, 1], back[t]]
+    choice = np.empty(len(first), dtype=int)
+    choice[-1] = int(np.argmin(total))
+    for t in range(len(first) - 1, 0, -1):
+        choice[t - 1] = back[t, choice[t]]
+    return branches[choice, np.arange(len(first))]
 
 
 def quat_to_matrix(q: np.ndarray) -> np.ndarray:

@@ -1,8 +1,11 @@
 """Parallel rollouts: environments in worker processes, batches for a trainer.
 
+Gymnasium only (no pydrake): trainers import this, and it reaches the
+robots through registered environment ids.
+
 - `EnvSpec` is the rollout worker's unit: a plain, picklable description
-  (environment id and keywords) that makes one environment in whichever
-  process calls it. Gymnasium's `AsyncVectorEnv` calls it in its worker
+  (environment id, keywords, and the module whose import registers the
+  id) that makes one environment in whichever process calls it. Gymnasium's `AsyncVectorEnv` calls it in its worker
   processes; a distributed engine (a Ray actor per worker, later) can do
   the same on other machines.
 - `make_vector_env(spec, N)` runs N environments in N processes (also for
@@ -14,6 +17,7 @@
   a `RolloutBatch` of arrays shaped (steps, N, ...).
 """
 
+import importlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -24,14 +28,16 @@ from gymnasium.vector import AsyncVectorEnv, AutoresetMode
 
 @dataclass(frozen=True)
 class EnvSpec:
-    """What makes one environment: a registered id and its keywords."""
+    """What makes one environment: a registered id, its keywords, and the
+    module that registers the id (imported first, in a fresh worker too)."""
 
     env_id: str = "hotu_drake/Imitation-v0"
     kwargs: dict = field(default_factory=dict)
+    module: str = "hotu_drake.envs"
 
     def make(self) -> gym.Env:
-        import hotu_drake.envs  # noqa: F401  (registers the ids in a fresh worker process)
-
+        if self.module:
+            importlib.import_module(self.module)
         return gym.make(self.env_id, **self.kwargs)
 
     def __call__(self) -> gym.Env:

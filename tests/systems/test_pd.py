@@ -8,7 +8,10 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from hotu_drake import embodiment
-from hotu_drake.systems.pd import ActionScaling, SaturatedPdController
+from hotu_drake.embodiment.actions import ActionScaling
+from hotu_drake.systems.pd import AddActionToTargets, AddPdControl, SaturatedPdController
+from tests.systems.conftest import make_scene
+from tests.systems.ports import assert_inputs_wired, assert_port_contract
 
 
 def _fixed_udh(time_step: float):
@@ -114,3 +117,19 @@ def test_explicit_pd_in_a_closed_loop_reaches_its_targets():
     assert np.max(np.abs(q - targets)) < 0.05
     torques = controller.get_output_port(0).Eval(controller.GetMyContextFromRoot(context))
     assert np.all(np.abs(torques) <= udh.effort_limits + 1e-9)
+
+
+def test_port_contract():
+    s = make_scene(builtin_pd=False)
+    n = len(s.embodiment.joint_names)
+    targets = AddActionToTargets(s.builder, s.embodiment, explicit=True)
+    controller = AddPdControl(s.builder, s.plant, s.model, s.embodiment, targets.get_output_port(), explicit=True)
+    assert_inputs_wired(s.builder, controller)
+    assert_port_contract(controller, {"state": s.plant.num_multibody_states(s.model), "targets": n}, {"torques": n})
+    assert s.builder.IsConnectedOrExported(s.plant.get_actuation_input_port(s.model))
+    # With the built-in PD, the targets go to the plant's desired state (q and v) and no controller is added.
+    s = make_scene()
+    targets = AddActionToTargets(s.builder, s.embodiment)
+    assert targets.get_output_port().size() == 2 * n
+    assert AddPdControl(s.builder, s.plant, s.model, s.embodiment, targets.get_output_port()) is None
+    assert s.builder.IsConnectedOrExported(s.plant.get_desired_state_input_port(s.model))

@@ -9,7 +9,9 @@ from pydrake.systems.framework import DiagramBuilder
 
 from hotu_drake import embodiment
 from hotu_drake.objects import add_object
-from hotu_drake.systems.interaction_graph import InteractionGraphSystem
+from hotu_drake.systems.interaction_graph import AddInteractionGraph, InteractionGraphSystem
+from tests.systems.conftest import make_scene
+from tests.systems.ports import assert_inputs_wired, assert_port_contract
 
 
 def _scene():
@@ -58,3 +60,15 @@ def test_hand_on_box_turns_the_edge_on_and_off():
     off = graph.GetOutputPort("graph").Eval(graph_context)
     assert not off.edges[("left_hand", "box")]
     assert graph.GetOutputPort("interaction").Eval(graph_context)[-2:] == pytest.approx([0.0, 0.0])
+
+
+def test_port_contract():
+    s = make_scene(finalize=False)
+    box = add_object(s.plant, "box")
+    s.plant.Finalize()
+    bodies = {"box": s.plant.GetBodyByName("box", box)}
+    graph = AddInteractionGraph(s.builder, s.plant, s.model, s.embodiment, bodies, np.array([[1.0, 0.0, 0.5]]))
+    assert_inputs_wired(s.builder, graph)
+    # s_I for two hands and one object: d_ho (2 x 3), d_og (3), e_ho (2).
+    inputs = {"body_poses": None, "contact_results": None, "object_targets": 3}
+    assert_port_contract(graph, inputs, {"graph": None, "interaction": 3 * 2 + 3 + 2})

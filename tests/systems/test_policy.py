@@ -4,10 +4,13 @@ import numpy as np
 import pytest
 import torch
 from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource
 
 from hotu_drake.learning.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
 from hotu_drake.learning.policy import PolicyConfig, PolicyNetwork
-from hotu_drake.systems.policy import PolicySystem
+from hotu_drake.systems.policy import AddPolicy, PolicySystem
+from tests.systems.ports import assert_inputs_wired, assert_port_contract
 
 
 def _network() -> PolicyNetwork:
@@ -79,3 +82,13 @@ def test_learning_package_is_pydrake_free():
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip() == "False"
+
+
+def test_port_contract():
+    builder = DiagramBuilder()
+    observation = builder.AddSystem(ConstantVectorSource(np.zeros(7)))
+    policy = AddPolicy(builder, _network(), observation.get_output_port(), control_rate=30.0)
+    assert_inputs_wired(builder, policy)  # the latents are held at zero by their sources
+    assert_port_contract(policy, {"observation": 7, "latent_hip": 2, "latent_knee": 4}, {"action": 3})
+    diagram = builder.Build()
+    assert diagram.HasSubsystemNamed("latent_hip_source") and diagram.HasSubsystemNamed("latent_knee_source")

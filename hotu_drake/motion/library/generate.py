@@ -1,0 +1,170 @@
+"""Generating the library: each motion planned, realised on the UDH, and turned into a clip."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from hotu_drake import embodiment
+from hotu_drake.embodiment import Embodiment
+from hotu_drake.embodiment.kinematics import batch_link_poses
+from hotu_drake.embodiment.spec import SIDES
+from hotu_drake.motion.clip import MotionClip
+from hotu_drake.motion.human import human_clip
+from hotu_drake.motion.library.gestures import boxing, finger_motions, handshake, kungfu, slap, thumbs_up, wave
+from hotu_drake.motion.library.locomotion import jump, leg_stretch, squat, walk
+from hotu_drake.motion.library.object_tasks import box_carry, drill_grasp
+from hotu_drake.motion.library.planning import (
+    Scene,
+)
+from hotu_drake.motion.synthesis import (
+    Body,
+    Plan,
+    realize,
+)
+from hotu_drake.motion.udh_skeleton import udh_landmarks
+from hotu_drake.rotations import finite_difference, matrix_to_quat
+
+MOTIONS: tuple[str, ...] = (
+    "walk",
+    "jump",
+    "squat",
+    "leg_stretch",
+    "boxing",
+    "finger_motions",
+    "handshake",
+    "kungfu",
+    "wave",
+    "slap",
+    "thumbs_up",
+    "box_carry",
+    "drill_grasp",
+)
+# Nominal durations (s); `duration=` stretches or shortens a motion.
+DURATIONS: dict[str, float] = {
+    "walk": 4.4,
+    "jump": 2.6,
+    "squat": 4.6,
+    "leg_stretch": 7.0,
+    "boxing": 4.6,
+    "finger_motions": 6.0,
+    "handshake": 4.2,
+    "kungfu": 7.4,
+    "wave": 4.0,
+    "slap": 3.0,
+    "thumbs_up": 3.6,
+    "box_carry": 11.8,
+    "drill_grasp": 5.4,
+}
+CONTACT_HEIGHT = 0.01  # m: a sole this close to the floor ...
+CONTACT_SPEED = 0.1  # m/s: ... and moving this slowly is in contact
+
+
+@lru_cache(maxsize=1)
+def _default_udh() -> Embodiment:
+    return embodiment.load("udh", hands="full")
+
+
+_PLANNERS: dict[str, Callable[[Scene], Plan]] = {
+    "walk": walk,
+    "jump": jump,
+    "squat": squat,
+    "leg_stretch": leg_stretch,
+    "boxing": boxing,
+    "finger_motions": finger_motions,
+    "handshake": handshake,
+    "kungfu": kungfu,
+    "wave": wave,
+    "slap": slap,
+    "thumbs_up": thumbs_up,
+    "box_carry": box_carry,
+    "drill_grasp": drill_grasp,
+}
+
+
+def _foot_contacts(udh: Embodiment, body: Body, poses: dict, fps: float) -> dict[str, np.ndarray]:
+    """Floor contact per foot: sole within 1 cm of the floor and the foot
+    (its link origin, the ankle) moving slowly, so a foot rolling onto its
+    toes to push off is already out of contact."""
+    out = {}
+    for side in SIDES:
+        rot, pos = poses[udh.key_bodies[f"{side}_foot"]]
+        points = pos[:, None, :] + np.einsum("tij,kj->tki", rot, body.foot_points)
+        height = points[..., 2].min(axis=1) - body.foot_radius
+        speed = np.linalg.norm(finite_difference(pos, fps), axis=1)
+        out[f"{side}_foot"] = (height < CONTACT_HEIGHT) & (speed < CONTACT_SPEED)
+    return out
+
+
+def _to_clip(udh: Embodiment, body: Body, plan: Plan, name: str) -> MotionClip:
+    q = realize(body, plan)
+    fps = plan.fps
+    quat = matrix_to_quat(plan.pelvis_rot)
+    poses = batch_link_poses(udh.spec, udh.joint_names, q, plan.pelvis_rot, plan.pelvis)
+    key_links = list(udh.key_bodies.values())
+    contacts = _foot_contacts(udh, body, poses, fps) | plan.contacts
+    objects = list(plan.objects)
+    return MotionClip.from_positions(
+        "udh",
+        f"hotu_drake/library/{name}",
+        fps,
+        udh.joint_names,
+        q,
+        plan.pelvis.copy(),
+        quat,
+        key_links,
+        np.stack([poses[link][1] for link in key_links], axis=1),
+        part_index={part: list(joints) for part, joints in udh.parts.items()},
+        object_names=objects,
+        object_poses=np.stack([plan.objects[o] for o in objects], axis=1) if objects else None,
+        contact_names=list(contacts),
+        contacts=np.stack(list(contacts.values()), axis=1),
+    )
+
+
+def generate_udh(
+    name: str, *, seed: int = 0, fps: float = 30.0, duration: float | None = None, udh: Embodiment | None = None
+) -> MotionClip:
+    """The library motion `name` on the UDH (92 joints with full hands).
+
+    `seed` varies step lengths, timings and object placements (the same
+    seed gives identical arrays); `duration` (s) stretches the motion.
+    """
+    if name not in _PLANNERS:
+        raise ValueError(f"unknown motion {name!r}; choose from {', '.join(MOTIONS)}")
+    if fps <= 0:
+        raise ValueError("fps must be positive")
+    nominal = DURATIONS[name]
+    duration = nominal if duration is None else float(duration)
+    if not 0.5 * nominal <= duration <= 3.0 * nominal:
+        raise ValueError(f"{name}: duration must be within {0.5 * nominal:.1f}-{3 * nominal:.1f} s")
+    udh = _default_udh() if udh is None else udh
+    if udh.name != "udh":
+        raise ValueError("the library is generated on the UDH")
+    body = Body.of(udh)
+    scene = Scene(body, float(fps), duration, duration / nominal, np.random.default_rng(seed))
+    return _to_clip(udh, body, _PLANNERS[name](scene), name)
+
+
+def generate(name: str, *, seed: int = 0, fps: float = 30.0, duration: float | None = None) -> MotionClip:
+    """The library motion `name` as a human demonstration (landmarks, objects, contacts)."""
+    udh = _default_udh()
+    clip = generate_udh(name, seed=seed, fps=fps, duration=duration, udh=udh)
+    return human_clip(
+        udh_landmarks(udh, clip),
+        clip.fps,
+        source=f"hotu_drake/library/{name}",
+        object_names=clip.object_names,
+        object_poses=clip.object_poses,
+        contact_names=clip.contact_names,
+        contacts=clip.contacts,
+    )
+
+
+def generate_library(out_dir: str | Path, names: Iterable[str] = MOTIONS, seed: int = 0) -> list[Path]:
+    """Write `<name>.npz` human clips for `names` into `out_dir`; returns the paths."""
+    out_dir = Path(out_dir)
+    return [generate(name, seed=seed).save(out_dir / f"{name}.npz") for name in names]
