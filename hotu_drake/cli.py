@@ -1,13 +1,23 @@
-"""Shared command-line behaviour: one-line errors and non-zero exit codes."""
+"""Shared command-line behaviour: one-line errors and non-zero exit codes.
+
+Bad input (`InputError`, unreadable or unwritable files) is one `error:`
+line and exit code 2. Anything else is a bug: one `error: internal error`
+line and exit code 70, and the traceback only with `HOTU_DRAKE_DEBUG=1`.
+"""
 
 import argparse
 import math
+import os
 import sys
 from collections.abc import Callable
 
+from hotu_drake.errors import InputError
 
-class UserError(Exception):
-    """A problem with the user's input: reported in one line, no traceback."""
+# The command lines' name for the project's bad-input error.
+UserError = InputError
+
+EXIT_BAD_INPUT = 2
+EXIT_INTERNAL = 70  # sysexits' EX_SOFTWARE
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -29,16 +39,30 @@ def positive_float(text: str) -> float:
 
 
 def run_cli(main: Callable[[list[str] | None], int], argv: list[str] | None = None) -> int:
-    """Run `main`, turning user errors into one `error: ...` line and exit code 2."""
+    """Run `main`, turning bad input into one `error: ...` line and exit code 2."""
     try:
         return main(argv)
-    except UserError as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 2
+    except InputError as error:
+        print(f"error: {_one_line(error)}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     except OSError as error:  # unwritable output, missing input, ...
         where = f"{error.filename}: " if error.filename else ""
         print(f"error: {where}{error.strerror or error}", file=sys.stderr)
-        return 2
+        return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print("error: interrupted", file=sys.stderr)
         return 130
+    except Exception as error:  # a bug: say so in one line, keep the traceback for developers
+        if os.environ.get("HOTU_DRAKE_DEBUG"):
+            raise
+        print(
+            f"error: internal error ({type(error).__name__}: {_one_line(error)}); rerun with HOTU_DRAKE_DEBUG=1 "
+            "for the traceback and please report it",
+            file=sys.stderr,
+        )
+        return EXIT_INTERNAL
+
+
+def _one_line(error: Exception) -> str:
+    lines = str(error).strip().splitlines()
+    return lines[0] if lines else type(error).__name__

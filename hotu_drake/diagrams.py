@@ -40,6 +40,7 @@ from pydrake.visualization import ApplyVisualizationConfig
 from hotu_drake import embodiment as embodiments
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.actions import standing_action
+from hotu_drake.errors import InputError
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.playback import ClipPlayback
 from hotu_drake.objects import add_scene_objects, object_body, place_objects
@@ -141,9 +142,7 @@ def build_simulation(
     """Build the diagram a scenario describes and initialise its simulator.
     `embodiment` overrides the scenario's (e.g. a resized UDH)."""
     emb = embodiment or embodiments.load(scenario.embodiment, scenario.hands)
-    clip = (
-        reference_clip(scenario.reference_motion, emb, scenario.base_dir or None) if scenario.reference_motion else None
-    )
+    clip = _reference_clip(scenario, emb)
     fixed = scenario.fixed_base and emb.floating_base
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlant(scenario.plant_config, builder)
@@ -278,6 +277,20 @@ def _(driver: BaseTwist, parts: DiagramParts) -> OutputPort:
     command = AddPlanarBaseCommand(parts.builder, parts.embodiment, parts.scenario.time_step)
     parts.builder.ExportInput(command.GetInputPort("twist"), "twist")
     return command.GetOutputPort("desired_state")
+
+
+def _reference_clip(scenario: Scenario, emb: Embodiment) -> MotionClip | None:
+    """The clip the scenario tracks or starts from, checked against its start time."""
+    if not scenario.reference_motion:
+        return None
+    clip = reference_clip(scenario.reference_motion, emb, scenario.base_dir or None)
+    if scenario.initial.reference_time > clip.duration:
+        raise InputError(
+            f"{scenario.initial.reference_time:g} s is beyond the {clip.duration:.2f} s of {scenario.reference_motion}",
+            scenario.source or None,
+            "initial.reference_time",
+        )
+    return clip
 
 
 def _reference_source(scenario: Scenario, emb: Embodiment, clip: MotionClip, loop: bool) -> ReferenceMotionSource:

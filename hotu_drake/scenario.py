@@ -16,7 +16,6 @@ the layout of hotu_drake 0.1 (`plant:`, `reference:`, `policy:` sections)
 still load; `LEGACY_FIELDS` says where each of their fields went.
 """
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -26,11 +25,32 @@ from pydrake.visualization import VisualizationConfig
 
 from hotu_drake.cli import UserError
 from hotu_drake.embodiment import EMBODIMENT_NAMES, HANDS_VARIANTS
+from hotu_drake.errors import InputError, check_bool, check_choice, check_number, check_vector
 from hotu_drake.objects import OBJECTS, SceneObject
 from hotu_drake.resources import systems_dir
 from hotu_drake.systems.perturbation import CubeLaunch
 
 CONTROLLERS = ("implicit", "explicit")
+APPROXIMATIONS = ("sap", "lagged", "similar")  # Drake's discrete approximations (TAMSI is gone from newer Drake)
+CONTACT_MODELS = ("point", "hydroelastic", "hydroelastic_with_fallback")
+SURFACES = ("triangle", "polygon")
+# Ranges of a scenario's numbers: what a humanoid simulation can use.
+LIMITS: dict[str, dict] = {
+    "time_step": {"low": 1e-5, "high": 0.05, "unit": "s"},  # above 50 ms contact is not resolved at all
+    "sap_near_rigid_threshold": {"low": 0.0, "high": 1.0},
+    "penetration_allowance": {"low": 0.0, "high": 0.1, "low_open": True, "unit": "m"},
+    "stiction_tolerance": {"low": 0.0, "high": 1.0, "low_open": True, "unit": "m/s"},
+    "control_rate": {"low": 1.0, "high": 1000.0, "unit": "Hz"},
+    "duration": {"low": 0.0, "high": 3600.0, "low_open": True, "unit": "s"},
+    "publish_period": {"low": 1e-3, "high": 1.0, "unit": "s"},
+    "drop_height": {"low": 0.0, "high": 2.0, "unit": "m"},  # a fall from higher breaks any humanoid
+    "position": {"high": 100.0},  # m from the origin, any axis
+    "cube_speed": {"low": 0.0, "high": 50.0, "low_open": True, "unit": "m/s"},
+    "cube_mass": {"low": 0.0, "high": 100.0, "low_open": True, "unit": "kg"},
+    "cube_size": {"low": 0.01, "high": 1.0, "unit": "m"},
+    "cube_aim_height": {"low": -3.0, "high": 3.0, "unit": "m"},
+}
+MAX_PLANT_STEPS = 5e6  # per run: about an hour of a humanoid at 1 ms, hours of wall clock
 
 
 # --- what drives the PD targets ------------------------------------------------------
@@ -140,8 +160,10 @@ class Scenario:
     perturbations: list[CubeLaunch] = field(default_factory=list)
     visualization: VisualizationConfig = field(default_factory=default_visualization)
     duration: float = 5.0
-    # Set by `load_scenario`: the folder relative paths are resolved in.
+    # Set by `load_scenario`: the folder relative paths are resolved in, and
+    # where the scenario came from (named in errors found when it is built).
     base_dir: str = ""
+    source: str = ""
 
     @property
     def time_step(self) -> float:
@@ -159,38 +181,73 @@ class Scenario:
         return p if p.is_absolute() or not self.base_dir else Path(self.base_dir) / p
 
     def validate(self, source: str = "scenario") -> None:
-        """Raise `UserError` naming `source` for the first bad field."""
-        if self.embodiment not in EMBODIMENT_NAMES:
-            raise UserError(f"{source}: unknown embodiment '{self.embodiment}'")
-        if self.hands not in HANDS_VARIANTS:
-            raise UserError(f"{source}: hands must be one of {', '.join(HANDS_VARIANTS)}")
-        if not (self.time_step > 0 and self.duration > 0 and self.initial.drop_height >= 0):
-            raise UserError(f"{source}: time_step and duration must be > 0, drop_height >= 0")
-        if self.controller not in CONTROLLERS:
-            raise UserError(f"{source}: controller must be implicit or explicit")
-        if not (self.control_rate > 0 and self.visualization.publish_period > 0):
-            raise UserError(f"{source}: control_rate and publish_period must be > 0")
+        """Raise `InputError` naming `source` and the field for the first bad
+        value: unknown names, non-finite numbers, values outside the ranges
+        of `LIMITS` (physically motivated), and runs too long to simulate."""
+        check_choice(self.embodiment, "embodiment", EMBODIMENT_NAMES, source)
+        check_choice(self.hands, "hands", HANDS_VARIANTS, source)
+        check_choice(self.controller, "controller", CONTROLLERS, source)
+        for name in ("fixed_base", "self_collision", "observation"):
+            check_bool(getattr(self, name), name, source)
+        pc = self.plant_config
+        check_choice(
+            pc.discrete_contact_approximation, "plant_config.discrete_contact_approximation", APPROXIMATIONS, source
+        )
+        check_choice(pc.contact_model, "plant_config.contact_model", CONTACT_MODELS, source)
+        check_choice(pc.contact_surface_representation, "plant_config.contact_surface_representation", SURFACES, source)
+        for name in ("time_step", "sap_near_rigid_threshold", "penetration_allowance", "stiction_tolerance"):
+            check_number(getattr(pc, name), f"plant_config.{name}", source, **LIMITS[name])
+        for name in ("control_rate", "duration"):
+            check_number(getattr(self, name), name, source, **LIMITS[name])
+        check_number(
+            self.visualization.publish_period, "visualization.publish_period", source, **LIMITS["publish_period"]
+        )
+        check_number(self.initial.drop_height, "initial.drop_height", source, **LIMITS["drop_height"])
+        reference_time = check_number(self.initial.reference_time, "initial.reference_time", source, low=-1.0)
+        if -1.0 < reference_time < 0.0:
+            raise InputError(
+                f"{reference_time:g} s: give a time >= 0, or -1 for no reference start",
+                source,
+                "initial.reference_time",
+            )
+        steps = self.duration / self.time_step
+        if steps > MAX_PLANT_STEPS:
+            raise InputError(
+                f"{self.duration:g} s at {self.time_step:g} s a step is {steps:.3g} plant steps; at most "
+                f"{MAX_PLANT_STEPS:.0e} in one run (shorten it or take a larger step)",
+                source,
+                "duration",
+            )
         if isinstance(self.driver, ReferenceTracking) and not self.driver.motion:
-            raise UserError(f"{source}: driver !ReferenceTracking needs a motion")
+            raise InputError("!ReferenceTracking needs a motion", source, "driver.motion")
         if self.initial.reference_time >= 0 and not self.reference_motion:
-            raise UserError(f"{source}: initial.reference_time needs a reference motion")
+            raise InputError(
+                "needs a reference motion (initial.motion or driver !ReferenceTracking)",
+                source,
+                "initial.reference_time",
+            )
         if isinstance(self.driver, PolicyCheckpoint) and not self.resolve(self.driver.checkpoint).is_file():
-            raise UserError(f"{source}: policy checkpoint {self.driver.checkpoint!r} not found")
+            raise InputError(f"policy checkpoint {self.driver.checkpoint!r} not found", source, "driver.checkpoint")
         if isinstance(self.driver, BaseTwist) and self.controller != "implicit":
-            raise UserError(f"{source}: driver !BaseTwist drives the built-in PD (controller: implicit)")
+            raise InputError("!BaseTwist drives the built-in PD (controller: implicit)", source, "driver")
         names = [o.instance_name for o in self.objects]
         if len(set(names)) != len(names):
-            raise UserError(f"{source}: two objects share the name '{max(names, key=names.count)}'")
-        for obj in self.objects:
-            if obj.kind not in OBJECTS:
-                raise UserError(f"{source}: unknown object kind '{obj.kind}'; choose from {', '.join(OBJECTS)}")
-            if len(obj.position) != 3 or len(obj.target) not in (0, 3):
-                raise UserError(f"{source}: object '{obj.instance_name}' needs a 3-D position (and target)")
+            raise InputError(f"two objects share the name '{max(names, key=names.count)}'", source, "objects")
+        for i, obj in enumerate(self.objects):
+            field_ = f"objects[{i}]"
+            check_choice(obj.kind, f"{field_}.kind", OBJECTS, source)
+            check_vector(obj.position, f"{field_}.position", source, bound=LIMITS["position"]["high"], unit="m")
+            if obj.target:
+                check_vector(obj.target, f"{field_}.target", source, bound=LIMITS["position"]["high"], unit="m")
+            check_number(obj.yaw, f"{field_}.yaw", source, low=-10.0, high=10.0, unit="rad")
             if obj.fixed and obj.held:
-                raise UserError(f"{source}: object '{obj.instance_name}' cannot be both fixed and held")
-        for launch in self.perturbations:
-            if len(launch.start) != 3 or launch.speed <= 0 or launch.mass <= 0 or launch.size <= 0:
-                raise UserError(f"{source}: a perturbation needs a 3-D start and positive speed, mass, size")
+                raise InputError(f"object '{obj.instance_name}' cannot be both fixed and held", source, field_)
+        for i, launch in enumerate(self.perturbations):
+            field_ = f"perturbations[{i}]"
+            check_vector(launch.start, f"{field_}.start", source, bound=LIMITS["position"]["high"], unit="m")
+            check_number(launch.time, f"{field_}.time", source, low=0.0, high=self.duration, unit="s")
+            for name in ("speed", "mass", "size", "aim_height"):
+                check_number(getattr(launch, name), f"{field_}.{name}", source, **LIMITS[f"cube_{name}"])
 
     def to_yaml(self) -> str:
         """The scenario as YAML (what `load_scenario` reads back)."""
@@ -337,12 +394,6 @@ def load_scenario(path: str | Path, name: str | None = None) -> Scenario:
     except Exception as error:  # the YAML reader raises many kinds
         raise UserError(f"{where}: not a valid scenario ({_first_line(error)})") from None
     scenario.base_dir = str(path.resolve().parent)
-    _check_finite(scenario, where)
+    scenario.source = where
     scenario.validate(where)
     return scenario
-
-
-def _check_finite(scenario: Scenario, where: str) -> None:
-    numbers = [scenario.time_step, scenario.duration, scenario.control_rate, scenario.initial.drop_height]
-    if not all(math.isfinite(x) for x in numbers):
-        raise UserError(f"{where}: time_step, duration, control_rate and drop_height must be finite numbers")

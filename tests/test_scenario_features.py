@@ -143,7 +143,7 @@ def test_box_scenario_holds_its_box_and_reports_the_interaction():
 def test_bad_scenario_fields_name_the_file(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("embodiment: udh\nobjects:\n  - kind: piano\n")
-    with pytest.raises(UserError, match=f"{bad}.*unknown object kind 'piano'"):
+    with pytest.raises(UserError, match=rf"{bad}: objects\[0\].kind: 'piano' is not one of box"):
         load_scenario(bad)
     bad.write_text("embodiment: udh\ndriver: !PolicyCheckpoint\n  checkpoint: missing.pt\n")
     with pytest.raises(UserError, match="checkpoint 'missing.pt' not found"):

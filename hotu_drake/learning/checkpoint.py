@@ -16,13 +16,14 @@ from pathlib import Path
 
 import torch
 
+from hotu_drake.errors import InputError
 from hotu_drake.io import atomic_output
 from hotu_drake.learning.policy import PolicyConfig, PolicyNetwork
 
 FORMAT_VERSION = 1
 
 
-class CheckpointError(Exception):
+class CheckpointError(InputError):
     """A file that is not a policy checkpoint this version understands."""
 
 
@@ -53,9 +54,13 @@ def load_checkpoint(path: str | Path) -> tuple[PolicyNetwork, dict]:
         raise CheckpointError(f"{path}: not a readable checkpoint ({type(error).__name__})") from None
     if not isinstance(data, dict) or data.get("format_version") != FORMAT_VERSION:
         raise CheckpointError(f"{path}: not a hotu_drake policy checkpoint of format version {FORMAT_VERSION}")
-    config = data["config"]
-    config = PolicyConfig(**{**config, "hidden": tuple(config["hidden"])})
-    network = PolicyNetwork(config)
-    network.load_state_dict(data["state_dict"])
+    try:
+        config = dict(data["config"])
+        config = PolicyConfig(**{**config, "hidden": tuple(config["hidden"])})
+        network = PolicyNetwork(config)
+        network.load_state_dict(data["state_dict"])
+    except (KeyError, TypeError, ValueError, RuntimeError) as error:  # missing or mistyped fields, wrong weights
+        reason = str(error).strip().splitlines()[0][:100] if str(error).strip() else type(error).__name__
+        raise CheckpointError(f"{path}: a damaged or incompatible checkpoint ({reason})") from None
     network.eval()
     return network, {k: v for k, v in data.items() if k != "state_dict"}
