@@ -6,6 +6,7 @@ line and exit code 70, and the traceback only with `HOTU_DRAKE_DEBUG=1`.
 """
 
 import argparse
+import logging
 import math
 import os
 import sys
@@ -36,6 +37,23 @@ def positive_float(text: str) -> float:
     if not math.isfinite(value) or value <= 0:
         raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
     return value
+
+
+def show_notes() -> None:
+    """Print what the readers decide (`hotu_drake.input` logger) as `note:`
+    and `warning:` lines on standard error."""
+    logger = logging.getLogger("hotu_drake.input")
+    if not any(isinstance(h, _NoteHandler) for h in logger.handlers):
+        logger.addHandler(_NoteHandler())
+    logger.setLevel(logging.INFO)
+
+
+class _NoteHandler(logging.StreamHandler):
+    """`note: ...` and `warning: ...` lines on standard error (the stream of the moment)."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        kind = "warning" if record.levelno >= logging.WARNING else "note"
+        print(f"{kind}: {record.getMessage()}", file=sys.stderr)
 
 
 def run_cli(main: Callable[[list[str] | None], int], argv: list[str] | None = None) -> int:

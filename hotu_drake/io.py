@@ -13,6 +13,8 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+from hotu_drake.errors import InputError
+
 
 @contextmanager
 def atomic_output(path: str | Path, suffix: str = ".tmp") -> Iterator[Path]:
@@ -35,10 +37,32 @@ def atomic_output(path: str | Path, suffix: str = ".tmp") -> Iterator[Path]:
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the usual mode
-        os.replace(tmp, path)
+        try:
+            os.replace(tmp, path)
+        except OSError as error:  # name the destination, not the temporary file
+            raise OSError(error.errno, f"cannot write here ({error.strerror})", str(path)) from None
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+
+
+def check_output_path(path: str | Path, folder: bool = False) -> Path:
+    """Check, before any work, that `path` can be written (a file, or with
+    `folder` a folder to write into): not the wrong kind of thing, and the
+    nearest existing folder above it writable. `InputError` naming the path
+    otherwise."""
+    path = Path(path)
+    if path.exists() and path.is_dir() != folder:
+        problem = "is a folder; give a file name" if path.is_dir() else "is a file; give a folder"
+        raise InputError(problem, path)
+    existing = path if folder and path.exists() else path.parent
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise InputError(f"cannot write here ({existing} is not a folder)", path)
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise InputError(f"cannot write here ({existing} is not writable)", path)
+    return path
 
 
 def write_bytes_atomic(path: str | Path, data: bytes) -> Path:

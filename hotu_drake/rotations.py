@@ -241,3 +241,45 @@ def angular_velocity(quaternions: np.ndarray, fps: float) -> np.ndarray:
     omega[0] = rotation_log(r[1] @ r[0].T) * fps
     omega[-1] = rotation_log(r[-1] @ r[-2].T) * fps
     return omega
+
+
+# --- up axes of captured data -------------------------------------------------------
+
+
+def signed_axis(text: str) -> str:
+    """An axis name normalised: y, +Y, -z -> +y, +y, -z. `ValueError` for anything else."""
+    text = str(text).strip().lower()
+    axis = text.lstrip("+-")
+    if axis not in ("x", "y", "z") or len(text) - len(axis) > 1:
+        raise ValueError(f"{text!r} is not an axis (x, y or z, optionally signed)")
+    return ("-" if text.startswith("-") else "+") + axis
+
+
+def up_rotation(up: str) -> np.ndarray:
+    """The rotation taking a file's up axis ("+y", "-z", ...) to +z, right-handed.
+
+    A Y-up lab's (x, y, z) becomes (z, x, y); a -axis is turned half a
+    turn about the new x axis.
+    """
+    up = signed_axis(up)
+    rows = {
+        "z": np.eye(3),
+        "y": np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
+        "x": np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]),
+    }
+    rotation = rows[up[-1]]
+    return rotation if up[0] == "+" else np.diag([1.0, -1.0, -1.0]) @ rotation
+
+
+def up_from_body(head: np.ndarray, feet: np.ndarray, clarity: float = 2.0) -> str | None:
+    """The signed file axis along which `head` (T, 3) stands above `feet`
+    (T, 3), or None when no axis is clearly it (the mean head-to-feet vector
+    is not at least `clarity` times longer along one axis than along any
+    other: a person lying down, or a bad marker set)."""
+    up = np.nanmean(np.asarray(head, dtype=float) - np.asarray(feet, dtype=float), axis=0)
+    if not np.all(np.isfinite(up)):
+        return None
+    order = np.argsort(np.abs(up))[::-1]
+    if np.abs(up[order[0]]) < clarity * np.abs(up[order[1]]):
+        return None
+    return ("+" if up[order[0]] > 0 else "-") + "xyz"[order[0]]

@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 from hotu_drake.embodiment import load
-from hotu_drake.motion.c3d import _up_rotation, load_c3d_clip, read_c3d, write_c3d
+from hotu_drake.motion.c3d import load_c3d_clip, read_c3d, write_c3d
 from hotu_drake.motion.clip import ClipFormatError, MotionClip
 from hotu_drake.motion.human import REQUIRED_LANDMARKS
 from hotu_drake.motion.marker_sets import PLUG_IN_GAIT_MARKERS, load_marker_set, markers_to_landmarks, udh_markers
 from hotu_drake.motion.udh_skeleton import udh_landmarks
 from hotu_drake.retarget.marker_fit import fit_udh_to_markers, marker_residuals
-from hotu_drake.rotations import angular_velocity, finite_difference, quat_multiply
+from hotu_drake.rotations import angular_velocity, finite_difference, quat_multiply, up_rotation
 
 FPS = 30.0
 FRAMES = 40
@@ -104,7 +104,7 @@ def _root_rotation(clip):
 def test_c3d_round_trip_fills_gaps(markers, read_back):
     measured, fps, info = read_back
     assert fps == FPS
-    assert info["units"] == "mm" and info["up_axis"] == "+z" and info["up_axis_source"] == "POINT:Y_SCREEN"
+    assert info["units"] == "mm" and info["up_axis"] == "+z" and info["up_axis_source"].startswith("data (the head")
     assert "LOST" in info["dropped"] and "LOST" not in measured
     assert info["gap_samples"] == {GAP[0]: GAP[2] - GAP[1], EDGE_GAP[0]: EDGE_GAP[2] - EDGE_GAP[1]}
     assert set(measured) == set(markers)
@@ -130,7 +130,7 @@ def test_read_detects_y_up_and_metres(tmp_path, markers):
 
     names = list(markers)
     z_up = np.stack([markers[n] for n in names])  # (n, T, 3)
-    y_up = z_up @ _up_rotation("+y")  # rows: the inverse of the reader's turn
+    y_up = z_up @ up_rotation("+y")  # rows: the inverse of the reader's turn
     c3d = ezc3d.c3d()
     c3d["parameters"]["POINT"]["RATE"]["value"] = [FPS]
     c3d["parameters"]["POINT"]["LABELS"]["value"] = tuple(f"Subject:{n}" for n in names)

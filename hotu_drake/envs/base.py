@@ -26,15 +26,17 @@ import numpy as np
 
 from hotu_drake import embodiment as embodiments
 from hotu_drake.diagrams import Simulation, build_simulation
-from hotu_drake.embodiment import Embodiment
+from hotu_drake.embodiment import EMBODIMENT_NAMES, HANDS_VARIANTS, Embodiment
 from hotu_drake.embodiment.actions import standing_action
+from hotu_drake.errors import InputError, check_bool, check_choice, check_number
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.playback import ClipPlayback
 from hotu_drake.objects import SceneObject, place_objects
 from hotu_drake.plant import FallCheck, set_robot_state
-from hotu_drake.scenario import ActionInput, InitialCondition, Scenario, load_scenario
+from hotu_drake.scenario import LIMITS, ActionInput, InitialCondition, Scenario, load_scenario
 
 log = logging.getLogger("hotu_drake.envs")
+MAX_AMP_HISTORY = 300  # frames (10 s at 30 Hz) of AMP observation kept per step
 
 # The environments' own scenario, where no `scenario=` is given.
 DEFAULT_ROBOT, DEFAULT_HANDS = "h1", "none"
@@ -60,16 +62,20 @@ def environment_scenario(
         base.plant_config.time_step = DEFAULT_TIME_STEP
     else:
         base = load_scenario(scenario) if isinstance(scenario, str) else copy.deepcopy(scenario)
-    base.embodiment = robot or base.embodiment
-    base.hands = hands or base.hands
+    base.embodiment = check_choice(robot, "robot", EMBODIMENT_NAMES, "environment") if robot else base.embodiment
+    base.hands = check_choice(hands, "hands", HANDS_VARIANTS, "environment") if hands else base.hands
     if time_step is not None:
-        base.plant_config.time_step = time_step
+        base.plant_config.time_step = check_number(time_step, "time_step", "environment", **LIMITS["time_step"])
     if sampled_output_ports is not None:
-        base.plant_config.use_sampled_output_ports = sampled_output_ports
-    base.control_rate = control_rate if control_rate is not None else base.control_rate
+        base.plant_config.use_sampled_output_ports = check_bool(
+            sampled_output_ports, "sampled_output_ports", "environment"
+        )
+    if control_rate is not None:
+        base.control_rate = check_number(control_rate, "control_rate", "environment", **LIMITS["control_rate"])
     base.initial = InitialCondition(drop_height=0.0)
     base.driver = ActionInput()
     base.objects = [*base.objects, *(objects or [])]
+    base.validate(base.source or "environment")
     return base
 
 
@@ -107,16 +113,22 @@ class DiagramEnv(gym.Env):
         termination_height: float = 0.5,
     ):
         """`scenario` as `environment_scenario` makes it; `embodiment`
-        overrides its robot (e.g. a resized UDH)."""
-        if amp_history < 1 or scenario.control_rate <= 0 or scenario.time_step <= 0:
-            raise ValueError("amp_history must be >= 1, control_rate and time_step > 0")
-        if not 0.0 <= reference_init_probability <= 1.0:
-            raise ValueError("reference_init_probability must be in [0, 1]")
+        overrides its robot (e.g. a resized UDH). Bad keywords raise `InputError`."""
+        where = type(self).__name__
+        amp_history = check_number(amp_history, "amp_history", where, low=1, high=MAX_AMP_HISTORY, integer=True)
+        reference_init_probability = check_number(
+            reference_init_probability, "reference_init_probability", where, low=0.0, high=1.0
+        )
+        drop_height = check_number(drop_height, "drop_height", where, low=0.0, high=1.0, unit="m")
+        termination_height = check_number(termination_height, "termination_height", where, low=0.0, high=1.0)
         substeps = round(1.0 / (scenario.control_rate * scenario.time_step))
         if substeps < 1 or abs(substeps * scenario.time_step * scenario.control_rate - 1.0) > 1e-9:
             # Otherwise actions would be held, and AMP frames spaced, unevenly.
-            raise ValueError(
-                f"the control period 1/{scenario.control_rate} s must be a whole number of {scenario.time_step} s steps"
+            raise InputError(
+                f"the control period 1/{scenario.control_rate:g} s must be a whole number of "
+                f"{scenario.time_step:g} s plant steps",
+                where,
+                "control_rate",
             )
         self.embodiment = embodiment or embodiments.load(scenario.embodiment, scenario.hands)
         emb = self.embodiment
@@ -168,15 +180,13 @@ class DiagramEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
-        options = options or {}
+        options = self._check_reset_options(options or {})
         context = self._context
         self.sim.diagram.SetDefaultContext(context)
         context.SetTime(0.0)
         kind = options.get("init")
         if kind is None:
             kind = "reference" if self.np_random.random() < self.reference_init_probability else "default"
-        if kind == "reference" and not self.clips:
-            raise ValueError("reference initialisation needs reference clips")
         history = None
         if kind == "reference":
             index = options.get("clip", int(self.np_random.integers(len(self.clips))))
@@ -186,10 +196,8 @@ class DiagramEnv(gym.Env):
             # The AMP history before the start is the clip's own past frames.
             past = start - self.control_period * np.arange(self.amp_history - 1, 0, -1)
             history = [self.clip_amp_frame(index, t) for t in past]
-        elif kind == "default":
-            self._set_default_state(float(self.np_random.uniform(0.0, self.drop_height)))
         else:
-            raise ValueError(f"options['init'] must be 'reference' or 'default', not {kind!r}")
+            self._set_default_state(float(self.np_random.uniform(0.0, self.drop_height)))
         self.init_kind = kind
         self._place_objects()
         self._place_task()
@@ -202,11 +210,46 @@ class DiagramEnv(gym.Env):
         self._last = (self._observe(), self._info(terminated=False))
         return self._last
 
+    def _check_reset_options(self, options: dict) -> dict:
+        """`init` ('reference' or 'default'), and for a reference start the
+        `clip` index and the `time` (s) in it; `InputError` otherwise."""
+        where = f"{type(self).__name__}.reset"
+        if not isinstance(options, dict):
+            raise InputError(f"{options!r} is not a dict", where, "options")
+        unknown = sorted(set(options) - {"init", "clip", "time"})
+        if unknown:
+            raise InputError(f"unknown option(s) {', '.join(map(repr, unknown))} (known: init, clip, time)", where)
+        if "init" in options:
+            check_choice(options["init"], "options['init']", ("reference", "default"), where)
+        reference = options.get("init") == "reference" or {"clip", "time"} & options.keys()
+        if reference and not self.clips:
+            raise InputError("a reference start needs reference clips (the env has none)", where, "options['init']")
+        if "clip" in options:
+            high = len(self.clips) - 1
+            check_number(options["clip"], "options['clip']", where, low=0, high=high, integer=True)
+        if "time" in options:
+            clip = (
+                self.clips[int(options.get("clip", 0))]
+                if "clip" in options
+                else min(self.clips, key=lambda c: c.duration)
+            )
+            check_number(options["time"], "options['time']", where, low=0.0, high=clip.duration, unit="s")
+        return options
+
     def step(self, action):
         start = time.perf_counter()
-        action = np.asarray(action, dtype=np.float64)
+        try:
+            action = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise InputError(
+                f"not an array of {self.action_space.shape[0]} numbers", type(self).__name__, "action"
+            ) from None
         if action.shape != self.action_space.shape or not np.all(np.isfinite(action)):
-            raise ValueError(f"action must be {self.action_space.shape} finite numbers")
+            raise InputError(
+                f"must be {self.action_space.shape[0]} finite numbers, got shape {action.shape}",
+                type(self).__name__,
+                "action",
+            )
         self._action_port.FixValue(self._context, np.clip(action, -1.0, 1.0))
         target = self._context.get_time() + self.control_period
         try:

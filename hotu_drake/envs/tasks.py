@@ -23,6 +23,7 @@ from pydrake.math import RigidTransform, RollPitchYaw
 from hotu_drake import embodiment as embodiments
 from hotu_drake.embodiment.spec import HAND_ROLES
 from hotu_drake.envs.base import DiagramEnv, environment_scenario
+from hotu_drake.errors import InputError, check_number, check_vector
 from hotu_drake.objects import DRILL_BASE, TABLE_TOP, SceneObject, object_body
 from hotu_drake.retarget.references import reference_clips
 from hotu_drake.rotations import heading_rotation
@@ -35,6 +36,16 @@ GOAL_FEATURES = 3 + 6 + 3
 class Range:
     low: float
     high: float
+
+    @staticmethod
+    def of(values, field: str, where: str, low: float, high: float) -> "Range":
+        """A (low, high) keyword, checked: two finite numbers within [low, high], in order."""
+        a, b = check_vector(values, field, where, size=2)
+        for value in (a, b):
+            check_number(value, field, where, low=low, high=high)
+        if a > b:
+            raise InputError(f"({a:g}, {b:g}): the low end is above the high end", where, field)
+        return Range(a, b)
 
     def sample(self, rng: np.random.Generator) -> float:
         return float(rng.uniform(self.low, self.high))
@@ -148,15 +159,16 @@ class BoxCarryEnv(_ObjectTaskEnv):
         carry_height: float = 0.3,
         **options,
     ):
+        where = type(self).__name__
         self.ranges = {
-            "start_distance": Range(*start_distance),
-            "start_bearing": Range(*start_bearing),
-            "start_height": Range(*start_height),
-            "target_distance": Range(*target_distance),
-            "target_bearing": Range(*target_bearing),
-            "target_height": Range(*target_height),
+            "start_distance": Range.of(start_distance, "start_distance", where, 0.0, 10.0),
+            "start_bearing": Range.of(start_bearing, "start_bearing", where, -np.pi, np.pi),
+            "start_height": Range.of(start_height, "start_height", where, 0.0, 3.0),
+            "target_distance": Range.of(target_distance, "target_distance", where, 0.0, 20.0),
+            "target_bearing": Range.of(target_bearing, "target_bearing", where, -np.pi, np.pi),
+            "target_height": Range.of(target_height, "target_height", where, 0.0, 3.0),
         }
-        self.carry_height = carry_height
+        self.carry_height = check_number(carry_height, "carry_height", where, low=0.0, high=3.0, unit="m")
         obj = SceneObject(kind="box", name="box", position=[0.6, 0.0, 0.9], held=True)
         super().__init__(robot, hands, motions, obj, **options)
 
@@ -199,8 +211,12 @@ class DrillGraspEnv(_ObjectTaskEnv):
         lift_height: tuple[float, float] = (0.15, 0.35),
         **options,
     ):
-        self.table_distance = table_distance
-        self.ranges = {"drill_offset": Range(*drill_offset), "lift_height": Range(*lift_height)}
+        where = type(self).__name__
+        self.table_distance = check_number(table_distance, "table_distance", where, low=0.3, high=3.0, unit="m")
+        self.ranges = {
+            "drill_offset": Range.of(drill_offset, "drill_offset", where, -0.4, 0.4),
+            "lift_height": Range.of(lift_height, "lift_height", where, 0.0, 1.0),
+        }
         obj = SceneObject(kind="drill", name="drill")
         super().__init__(robot, hands, motions, obj, **options)
 

@@ -18,6 +18,7 @@ rotation channels applied in the order listed, angles in degrees.
 from __future__ import annotations
 
 import io
+import logging
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -28,22 +29,26 @@ import numpy as np
 
 from hotu_drake.io import write_text_atomic
 from hotu_drake.motion.clip import ClipFormatError, MotionClip
-from hotu_drake.motion.human import REQUIRED_LANDMARKS, human_clip
+from hotu_drake.motion.human import check_coverage, human_clip
 from hotu_drake.motion.skeleton_maps import JointNames, apply_user_map, best_family, load_user_map
-from hotu_drake.rotations import euler_xyz, quat_to_matrix
+from hotu_drake.rotations import euler_xyz, quat_to_matrix, signed_axis, up_from_body, up_rotation
 
 if TYPE_CHECKING:
     from hotu_drake.embodiment import Embodiment
+
+log = logging.getLogger("hotu_drake.input")
 
 # Metres per file unit. CMU's ASF-derived files use 1 unit = 1/0.45 inch = 0.056444 m.
 UNIT_SCALES: dict[str, float] = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "cmu": 0.056444}
 _AXES = "xyz"
 _CHANNELS = {f"{a}{kind}": (i, kind) for i, a in enumerate(_AXES) for kind in ("position", "rotation")}
-# Y-up file axes (x, y, z) -> z-up world (z, x, y): a proper rotation (keeps handedness).
-_Y_UP_TO_Z_UP = [2, 0, 1]
+# z-up world (x, y, z) -> Y-up file axes (y, z, x), for writing: a proper rotation.
 _Z_UP_TO_Y_UP = [1, 2, 0]
 # Typical standing height (m) used to choose units: the candidate nearest in log scale wins.
 _TYPICAL_HEIGHT = 1.7
+# Bounds on what a file may ask of the parser (a human skeleton has a few hundred joints at most).
+MAX_DEPTH, MAX_JOINTS = 200, 2000
+FRAME_TIME = (1e-4, 10.0)  # s: 10 kHz to 0.1 Hz
 
 
 @dataclass
@@ -135,8 +140,11 @@ class _Joint:
     end_site: tuple[float, float, float] | None = None
 
 
-def _parse_joint(tokens: _Tokens, parent: int, joints: list[_Joint]) -> None:
+def _parse_joint(tokens: _Tokens, parent: int, joints: list[_Joint], depth: int = 0) -> None:
     """Parse one ROOT/JOINT block (its keyword already read) and its children."""
+    if depth > MAX_DEPTH or len(joints) >= MAX_JOINTS:
+        what = f"nested more than {MAX_DEPTH} deep" if depth > MAX_DEPTH else f"more than {MAX_JOINTS} joints"
+        raise tokens.error(f"the hierarchy has {what}: not a skeleton")
     name, line = tokens.next("a joint name")
     if name in ("{", "}"):
         raise tokens.error("a joint has no name", line)
@@ -155,7 +163,7 @@ def _parse_joint(tokens: _Tokens, parent: int, joints: list[_Joint]) -> None:
         elif token == "CHANNELS":
             joint.channels = _parse_channels(tokens, name)
         elif token == "JOINT":
-            _parse_joint(tokens, index, joints)
+            _parse_joint(tokens, index, joints, depth + 1)
         elif token == "End":
             joint.end_site = _parse_end_site(tokens, name)
         else:
@@ -227,8 +235,11 @@ def _parse_motion(where: str, lines: list[str], start: int, num_channels: int) -
         frame_time = float(time_text)
     except ValueError:
         raise ClipFormatError(f"{where}: line {index}: Frame Time: {time_text!r} is not a number") from None
-    if not (math.isfinite(frame_time) and frame_time > 0):
-        raise ClipFormatError(f"{where}: line {index}: Frame Time must be a positive number, got {time_text}")
+    if not (math.isfinite(frame_time) and FRAME_TIME[0] <= frame_time <= FRAME_TIME[1]):
+        raise ClipFormatError(
+            f"{where}: line {index}: Frame Time {time_text} s is not a plausible frame time "
+            f"({FRAME_TIME[0]:g} to {FRAME_TIME[1]:g} s, i.e. {1 / FRAME_TIME[1]:g} to {1 / FRAME_TIME[0]:g} fps)"
+        )
     if frames == 0:
         raise ClipFormatError(f"{where}: has zero frames")
     rows = [(number, line) for number, line in enumerate(lines[index:], start=index + 1) if line.strip()]
@@ -376,7 +387,11 @@ def _chain_length(bvh: BvhFile, a: tuple[int, bool], b: tuple[int, bool]) -> flo
 
 
 def skeleton_height(bvh: BvhFile, landmarks: Mapping[str, tuple[int, bool]]) -> float:
-    """Standing height in file units: the bone chain from head top (or head) to each ankle, averaged."""
+    """Standing height in file units: the bone chain from head top (or head)
+    to each ankle, averaged; without legs, the arm span (about a person's
+    height) from wrist to wrist."""
+    if "left_ankle" not in landmarks:
+        return _chain_length(bvh, landmarks["left_wrist"], landmarks["right_wrist"])
     top = landmarks.get("head_top", landmarks["head"])
     return float(np.mean([_chain_length(bvh, top, landmarks[f"{side}_ankle"]) for side in ("left", "right")]))
 
@@ -404,12 +419,6 @@ def unit_scale(units: str | float) -> float:
     return scale
 
 
-def detect_up(head: np.ndarray, ankles: np.ndarray) -> str:
-    """ "y" or "z": the file axis along which the head sits above the ankles (mean over frames)."""
-    up = np.mean(np.asarray(head) - np.asarray(ankles), axis=0)
-    return "z" if abs(up[2]) > abs(up[1]) else "y"
-
-
 # --- reading ----------------------------------------------------------------------------------------------
 
 
@@ -426,14 +435,17 @@ def read_bvh(
         path: the BVH file.
         units: "m", "cm", "mm", "in", "cmu" or metres per file unit; detected
             from the skeleton's height when None.
-        up: "y" or "z", the file's up axis; detected from the head's position
-            over the ankles when None.
+        up: the file's up axis, optionally signed ("y", "+z", "-x", ...);
+            when None, the axis along which the head stands above the
+            ankles (or the pelvis), else +y (said on the `hotu_drake.input`
+            logger).
         skeleton_map: a YAML file or dict {landmark: joint or "Joint:end"}
             applied over the best built-in naming family.
 
     Raises:
-        ClipFormatError: bad file, unknown skeleton, missing landmarks; the
-            message starts with the path.
+        ClipFormatError: bad file, unknown skeleton, missing landmarks (a
+            skeleton may cover part of the body, see `human.check_coverage`);
+            the message starts with the path.
     """
     where = str(path)
     bvh = parse_bvh(path)
@@ -443,24 +455,37 @@ def read_bvh(
         landmarks = apply_user_map(landmarks, load_user_map(skeleton_map), joints, where)
     elif family is None:
         raise ClipFormatError(f"{where}: unknown skeleton (no built-in map covers it; pass --skeleton-map)")
-    missing = [name for name in REQUIRED_LANDMARKS if name not in landmarks]
-    if missing:
-        raise ClipFormatError(f"{where}: the skeleton map lacks landmarks {', '.join(missing[:4])}")
+    check_coverage(landmarks, where)
     rotations, positions = forward_kinematics(bvh)
     points = {name: _target_positions(bvh, rotations, positions, t) for name, t in landmarks.items()}
-    if up is None:
-        up = detect_up(points["head"], 0.5 * (points["left_ankle"] + points["right_ankle"]))
-    elif up not in ("y", "z"):
-        raise ValueError(f"up must be 'y' or 'z', not {up!r}")
+    up = _choose_up(up, points, where)
     if units is None:
         try:
             units = detect_units(skeleton_height(bvh, landmarks))
         except ValueError:
             raise ClipFormatError(f"{where}: cannot detect units (the skeleton has no size); pass units") from None
     scale = unit_scale(units)
-    order = _Y_UP_TO_Z_UP if up == "y" else [0, 1, 2]
-    metric = {name: scale * p[:, order] for name, p in points.items()}
+    rotation = up_rotation(up)
+    metric = {name: scale * p @ rotation.T for name, p in points.items()}
     return human_clip(metric, bvh.fps, source=where)
+
+
+def _choose_up(up: str | None, points: Mapping[str, np.ndarray], where: str) -> str:
+    """The file's up axis: `up` if given, else where the head stands over the
+    feet (or the pelvis), else +y, BVH's convention; said on the
+    `hotu_drake.input` logger."""
+    if up is not None:
+        try:
+            return signed_axis(up)
+        except ValueError as error:
+            raise ClipFormatError(f"{where}: up: {error}") from None
+    base = [points[n] for n in ("left_ankle", "right_ankle") if n in points] or [points.get("pelvis", points["chest"])]
+    found = up_from_body(points["head"], np.mean(base, axis=0))
+    if found is None:
+        log.warning("%s: up axis unclear from the data (the head is above the feet along no axis); +y assumed", where)
+        return "+y"
+    log.info("%s: up axis %s (the head stands above the feet along it)", where, found)
+    return found
 
 
 # --- writing ----------------------------------------------------------------------------------------------

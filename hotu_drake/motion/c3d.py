@@ -6,8 +6,8 @@
 markers (for synthetic captures and round trips).
 """
 
+import logging
 import struct
-import warnings
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -16,16 +16,27 @@ import numpy as np
 from hotu_drake.io import atomic_output
 from hotu_drake.motion.clip import ClipFormatError, MotionClip
 from hotu_drake.motion.human import human_clip
-from hotu_drake.motion.marker_sets import AXES, MarkerSetLike, marker_names, markers_to_landmarks
+from hotu_drake.motion.marker_sets import (
+    BUILTIN_MARKER_SETS,
+    MarkerSetLike,
+    choose_marker_set,
+    marker_names,
+    markers_to_landmarks,
+)
+from hotu_drake.rotations import signed_axis, up_from_body, up_rotation
 
+log = logging.getLogger("hotu_drake.input")
+
+RATE_RANGE = (1.0, 10000.0)  # Hz: what a motion capture records at
 UNIT_SCALES = {"mm": 1e-3, "cm": 1e-2, "dm": 0.1, "m": 1.0, "in": 0.0254, "inch": 0.0254, "ft": 0.3048}
 
 
 # --- C3D files ---------------------------------------------------------------
 
 
-def _check_header(path: Path) -> None:
-    """Raise `ClipFormatError` unless `path` starts like a C3D file with frames."""
+def _check_header(path: Path) -> int:
+    """The frame count the header promises; `ClipFormatError` unless `path`
+    starts like a C3D file with frames."""
     if not path.is_file():
         raise ClipFormatError(f"{path}: no such file")
     with open(path, "rb") as f:
@@ -40,6 +51,7 @@ def _check_header(path: Path) -> None:
     first, last = struct.unpack(order + "HH", header[6:10])
     if last < first:
         raise ClipFormatError(f"{path}: the C3D file has no frames")
+    return last - first + 1
 
 
 def _labels(parameters: Mapping) -> list[str]:
@@ -61,41 +73,62 @@ def _strip_prefix(labels: list[str], wanted: set[str]) -> list[str]:
     return labels
 
 
-def _up_rotation(up: str) -> np.ndarray:
-    """Rotation taking the file's up axis ("+y", "-z", ...) to +z, right-handed.
-
-    Y up (x, y, z) -> (z, x, y): a Y-up lab's z axis becomes x.
-    """
-    sign, axis = (-1.0, up[-1]) if up.startswith("-") else (1.0, up[-1])
-    rows = {"z": np.eye(3), "y": np.array([[0, 0, 1.0], [1.0, 0, 0], [0, 1.0, 0]])}
-    rows["x"] = np.array([[0, 1.0, 0], [0, 0, 1.0], [1.0, 0, 0]])
-    rotation = rows[axis]
-    return rotation if sign > 0 else np.diag([1.0, -1.0, -1.0]) @ rotation
-
-
-def _signed_axis(text: str) -> str:
-    """Normalise an axis name: y, +Y, -z -> +y, +y, -z."""
-    text = str(text).strip().lower()
-    axis = text.lstrip("+-")
-    if axis not in AXES or len(text) - len(axis) > 1:
-        raise ValueError(f"up must be x, y or z, optionally signed, not {text!r}")
-    return ("-" if text.startswith("-") else "+") + axis
-
-
-def _detect_up(parameters: Mapping, points: np.ndarray, missing: np.ndarray) -> tuple[str, str]:
-    """(up axis, how it was found): POINT:Y_SCREEN, else the data, else z."""
+def _screen_hint(parameters: Mapping) -> str | None:
+    """POINT:Y_SCREEN as a signed axis, if it is one: the axis a viewer shows
+    upward, which usually, not always, is the data's up axis."""
     screen = parameters["POINT"].get("Y_SCREEN", {}).get("value", [])
-    if len(screen) and str(screen[0]).strip().lower().lstrip("+-") in AXES:
-        return _signed_axis(screen[0]), "POINT:Y_SCREEN"
-    masked = np.where(missing[..., None], np.nan, points)  # (n, T, 3)
-    if np.isfinite(masked).any() and len(points) >= 3:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)  # frames with no marker
-            extent = np.nanmedian(np.nanmax(masked, axis=0) - np.nanmin(masked, axis=0), axis=0)
-        order = np.argsort(extent)[::-1]
-        if np.all(np.isfinite(extent)) and extent[order[0]] > 1.5 * extent[order[1]]:
-            return "+" + "xyz"[order[0]], "data (tallest extent)"
-    return "+z", "default (z assumed)"
+    try:
+        return signed_axis(screen[0]) if len(screen) else None
+    except ValueError:
+        return None
+
+
+def _tallest_extent(markers: Mapping[str, np.ndarray]) -> str | None:
+    """+axis of the largest per-frame extent of all markers, if clearly the largest."""
+    points = np.stack(list(markers.values()))  # (n, T, 3)
+    if len(points) < 3:
+        return None
+    extent = np.median(points.max(axis=0) - points.min(axis=0), axis=0)
+    order = np.argsort(extent)[::-1]
+    return "+" + "xyz"[order[0]] if extent[order[0]] > 1.5 * extent[order[1]] else None
+
+
+def _choose_up(up, markers: Mapping[str, np.ndarray], marker_set, parameters: Mapping, where: str) -> tuple[str, str]:
+    """(up axis, how it was found). `up` when given. Otherwise the data
+    decides: the axis along which the head stands above the feet (landmarks
+    of the marker set), else the clearly tallest extent of the markers;
+    POINT:Y_SCREEN is only a hint, used when the data cannot tell, and a
+    disagreement is said. Last resort: +z."""
+    if up is not None:
+        try:
+            return signed_axis(up), "given"
+        except ValueError as error:
+            raise ClipFormatError(f"{where}: up: {error}") from None
+    hint = _screen_hint(parameters)
+    found, how = None, ""
+    if marker_set is not None:
+        try:
+            points = markers_to_landmarks(markers, marker_set, source=where, say=False)
+        except ClipFormatError:
+            points = {}
+        if "head" in points:
+            feet = [points[n] for n in ("left_ankle", "right_ankle") if n in points] or [points["chest"]]
+            found, how = up_from_body(points["head"], np.mean(feet, axis=0)), "the head stands above the body"
+    if found is None:
+        found, how = _tallest_extent(markers), "the markers extend furthest along it"
+    if found is None:
+        if hint is not None:
+            log.warning("%s: up axis unclear from the data; %s taken from POINT:Y_SCREEN", where, hint)
+            return hint, "POINT:Y_SCREEN"
+        log.warning("%s: up axis unclear from the data and the file; +z assumed (pass up to override)", where)
+        return "+z", "assumed"
+    if hint is not None and hint != found:
+        log.info(
+            "%s: up axis %s (%s); the file's POINT:Y_SCREEN says %s, a display hint, not used", where, found, how, hint
+        )
+    else:
+        log.info("%s: up axis %s (%s)", where, found, how)
+    return found, f"data ({how})"
 
 
 def fill_gaps(x: np.ndarray, missing: np.ndarray, method: str = "cubic") -> np.ndarray:
@@ -128,17 +161,20 @@ def read_c3d(
     """Labelled marker trajectories of a C3D file, in metres with z up.
 
     Returns ({marker: (T, 3)}, fps, info). Units come from POINT:UNITS (mm
-    assumed if absent); the up axis from `up`, else POINT:Y_SCREEN, else
-    the axis of the largest per-frame extent if clearly the largest, else z
-    (`info` says which and how). Missing samples (negative residual, NaN or
-    all-zero) are filled (`fill_gaps`); markers never seen and unlabelled
-    ones ("*12") are dropped. With `marker_set`, only its markers are kept.
+    assumed if absent). The up axis is `up` if given (x, y or z, optionally
+    signed), else decided from the data (`_choose_up`: where the head stands
+    over the feet through the marker set, which is `marker_set` or the
+    built-in set that fits the file best); `info` says which and how.
+    Missing samples (negative residual, NaN or all-zero) are filled
+    (`fill_gaps`); markers never seen and unlabelled ones ("*12") are
+    dropped; with a marker set, so are markers it does not use.
     `info["filled"]` holds a (T,) mask of the filled samples per marker.
+    A file shorter than its header says is refused as truncated.
     """
     import ezc3d
 
     path = Path(path)
-    _check_header(path)
+    promised = _check_header(path)
     try:
         c3d = ezc3d.c3d(str(path))
         parameters = c3d["parameters"]
@@ -146,21 +182,31 @@ def read_c3d(
         residuals = np.asarray(c3d["data"]["meta_points"]["residuals"], dtype=float)[0]
         labels = _labels(parameters)
         rate = float(np.ravel(parameters["POINT"]["RATE"]["value"])[0])
+        declared = int(np.ravel(parameters["POINT"]["FRAMES"]["value"])[0]) if "FRAMES" in parameters["POINT"] else 0
     except (OSError, RuntimeError, ValueError, KeyError, IndexError, TypeError) as error:
         reason = str(error).splitlines()[0][:80] if str(error) else type(error).__name__
         raise ClipFormatError(f"{path}: not a readable C3D file ({reason})") from None
-    if points.shape[1] == 0:
+    frames = points.shape[1]
+    if frames == 0:
         raise ClipFormatError(f"{path}: the C3D file has no frames")
-    if not np.isfinite(rate) or rate <= 0:
-        raise ClipFormatError(f"{path}: POINT:RATE is not a positive frame rate")
+    expected = declared if declared > promised else promised  # POINT:FRAMES holds counts beyond 65535
+    if frames < expected:
+        raise ClipFormatError(f"{path}: truncated: the header promises {expected} frames, the file holds {frames}")
+    if not (np.isfinite(rate) and RATE_RANGE[0] <= rate <= RATE_RANGE[1]):
+        raise ClipFormatError(
+            f"{path}: POINT:RATE {rate:g} Hz is not a plausible frame rate ({RATE_RANGE[0]:g}-{RATE_RANGE[1]:g} Hz)"
+        )
     units_value = parameters["POINT"].get("UNITS", {}).get("value", [])
     units = str(units_value[0]).strip().lower() if len(units_value) else ""
     scale = UNIT_SCALES.get(units, 1e-3)
     missing = ~np.all(np.isfinite(points), axis=-1) | (residuals < 0) | np.all(points == 0.0, axis=-1)
-    up_axis, up_source = (_signed_axis(up), "argument") if up else _detect_up(parameters, points, missing)
-    points = np.where(missing[..., None], 0.0, points) * scale @ _up_rotation(up_axis).T
-    wanted = marker_names(marker_set) if marker_set is not None else set()
-    labels = _strip_prefix((labels + [""] * len(points))[: len(points)], wanted)
+    points = np.where(missing[..., None], 0.0, points) * scale
+    labels = (labels + [""] * len(points))[: len(points)]
+    chosen = marker_set if marker_set is not None else choose_marker_set(_strip_prefix(labels, set()))
+    if marker_set is None and chosen is not None:
+        log.info("%s: marker set %s (the built-in set the file's markers fit best)", path, chosen)
+    wanted = marker_names(chosen) if chosen is not None else set()
+    labels = _strip_prefix(labels, wanted)
     markers, dropped, gaps = {}, [], {}
     for i, label in enumerate(labels):
         if not label or label.startswith("*") or label in markers or (wanted and label not in wanted):
@@ -174,12 +220,16 @@ def read_c3d(
         markers[label] = fill_gaps(points[i], missing[i], fill)
     if not markers:
         raise ClipFormatError(f"{path}: the C3D file has no usable markers")
+    up_axis, up_source = _choose_up(up, markers, chosen, parameters, str(path))
+    rotation = up_rotation(up_axis)
+    markers = {label: xyz @ rotation.T for label, xyz in markers.items()}
     info = {
         "units": units or "mm (assumed)",
         "scale_to_metres": scale,
         "up_axis": up_axis,
         "up_axis_source": up_source,
-        "frames": int(points.shape[1]),
+        "marker_set": chosen if isinstance(chosen, str) or chosen is None else "given",
+        "frames": int(frames),
         "dropped": dropped,
         "gap_samples": {label: int(mask.sum()) for label, mask in gaps.items()},
         "filled": gaps,
@@ -220,8 +270,17 @@ def write_c3d(path: str | Path, markers: Mapping[str, np.ndarray], fps: float) -
     return path
 
 
-def load_c3d_clip(path: str | Path, marker_set: MarkerSetLike = None) -> MotionClip:
-    """A human clip (landmarks as key bodies) from a C3D file and a marker set."""
-    markers, fps, _ = read_c3d(path, marker_set=marker_set)
-    landmarks = markers_to_landmarks(markers, marker_set, source=str(path))
+def load_c3d_clip(path: str | Path, marker_set: MarkerSetLike = None, up: str | None = None) -> MotionClip:
+    """A human clip (landmarks as key bodies) from a C3D file and a marker set
+    (default: the built-in set that fits the file's markers best)."""
+    markers, fps, info = read_c3d(path, marker_set=marker_set, up=up)
+    chosen = marker_set if marker_set is not None else info["marker_set"]
+    if chosen is None:
+        shown = ", ".join(sorted(markers)[:16])
+        raise ClipFormatError(
+            f"{path}: no built-in marker set fits the file's markers ({shown}{' ...' if len(markers) > 16 else ''}); "
+            f"give one with --marker-set (built in: {', '.join(BUILTIN_MARKER_SETS)}) or write your own "
+            "(see hotu_drake.motion.marker_sets)"
+        )
+    landmarks = markers_to_landmarks(markers, chosen, source=str(path))
     return human_clip(landmarks, fps, source=str(path))

@@ -28,7 +28,7 @@ LANDMARKS: tuple[str, ...] = (
     *(f"{side}_{name}" for side in SIDES for name in LIMB_LANDMARKS),
     *(f"{side}_{finger}_{i}" for side in SIDES for finger in FINGERS for i in FINGER_POINTS),
 )
-# Without these a clip cannot be retargeted.
+# A full-body clip has all of these.
 REQUIRED_LANDMARKS: tuple[str, ...] = (
     "pelvis",
     "chest",
@@ -36,6 +36,41 @@ REQUIRED_LANDMARKS: tuple[str, ...] = (
     "head",
     *(f"{side}_{name}" for side in SIDES for name in ("shoulder", "elbow", "wrist", "hip", "knee", "ankle", "toe")),
 )
+# A capture may cover part of the body: every region is complete or absent,
+# the spine is always there, and legs need the pelvis.
+REGIONS: dict[str, tuple[str, ...]] = {
+    "spine": ("chest", "neck", "head"),
+    "pelvis": ("pelvis", "left_hip", "right_hip"),
+    **{f"{side}_leg": (f"{side}_knee", f"{side}_ankle", f"{side}_toe") for side in SIDES},
+    **{f"{side}_arm": (f"{side}_shoulder", f"{side}_elbow", f"{side}_wrist") for side in SIDES},
+}
+
+
+def check_coverage(names, source: str) -> list[str]:
+    """The body regions landmarks `names` cover; `ClipFormatError` (naming
+    `source` and the missing landmarks) when a region is incomplete, the
+    spine is missing, or legs come without the pelvis."""
+    names = set(names)
+    covered = [region for region, members in REGIONS.items() if set(members) <= names]
+    incomplete = {
+        region: [m for m in members if m not in names]
+        for region, members in REGIONS.items()
+        if region not in covered and set(members) & names
+    }
+    if "spine" not in covered:
+        incomplete.setdefault("spine", [m for m in REGIONS["spine"] if m not in names])
+    legs = [r for r in covered if r.endswith("_leg")]
+    if legs and "pelvis" not in covered:
+        incomplete.setdefault("pelvis", [m for m in REGIONS["pelvis"] if m not in names])
+    if incomplete:
+        missing = [m for members in incomplete.values() for m in members]
+        regions = ", ".join(r.replace("_", " ") for r in incomplete)
+        raise ClipFormatError(f"{source}: the skeleton lacks landmarks {', '.join(missing[:6])} (of the {regions})")
+    return covered
+
+
+def is_full_body(names) -> bool:
+    return set(REQUIRED_LANDMARKS) <= set(names)
 
 
 def finger_landmarks(side: str) -> list[str]:
@@ -43,10 +78,15 @@ def finger_landmarks(side: str) -> list[str]:
 
 
 def pelvis_frames(landmarks: Mapping[str, np.ndarray]) -> np.ndarray:
-    """(T, 3, 3) pelvis orientation: y from right to left hip, z up the spine."""
-    y = np.asarray(landmarks["left_hip"]) - np.asarray(landmarks["right_hip"])
+    """(T, 3, 3) root orientation: y from the right to the left hip, z up the
+    spine; for a capture without the pelvis, of the chest (y from the right
+    to the left shoulder, z from the chest to the neck)."""
+    left, right, low, high = ("left_hip", "right_hip", "pelvis", "chest")
+    if "pelvis" not in landmarks:
+        left, right, low, high = ("left_shoulder", "right_shoulder", "chest", "neck")
+    y = np.asarray(landmarks[left]) - np.asarray(landmarks[right])
     y /= np.linalg.norm(y, axis=-1, keepdims=True)
-    up = np.asarray(landmarks["chest"]) - np.asarray(landmarks["pelvis"])
+    up = np.asarray(landmarks[high]) - np.asarray(landmarks[low])
     z = up - np.sum(up * y, axis=-1, keepdims=True) * y
     z /= np.linalg.norm(z, axis=-1, keepdims=True)
     x = np.cross(y, z)
@@ -64,22 +104,23 @@ def human_clip(
 ) -> MotionClip:
     """Build a human clip from landmark trajectories {name: (T, 3)}.
 
-    The root is the pelvis landmark with the pelvis frame's orientation;
+    The root is the pelvis landmark with the pelvis frame's orientation (the
+    chest's, for a capture of the upper body: see `check_coverage`);
     velocities are finite differences of the samples.
     """
-    missing = [name for name in REQUIRED_LANDMARKS if name not in landmarks]
-    if missing:
-        raise ClipFormatError(f"{source}: the skeleton lacks landmarks {', '.join(missing[:4])}")
+    covered = check_coverage(landmarks, source)
+    if "pelvis" not in covered and not {"left_arm", "right_arm"} <= set(covered):
+        raise ClipFormatError(f"{source}: a capture without the pelvis needs both arms (the chest's frame)")
     unknown = [name for name in landmarks if name not in LANDMARKS]
     if unknown:
-        raise ValueError(f"unknown landmarks {unknown[:4]}")
+        raise ClipFormatError(f"{source}: unknown landmarks {', '.join(unknown[:4])}")
     names = [name for name in LANDMARKS if name in landmarks]
     positions = np.stack([np.asarray(landmarks[name], dtype=float) for name in names], axis=1)
     if positions.ndim != 3 or positions.shape[0] == 0:
         raise ClipFormatError(f"{source}: has zero frames")
     if not np.all(np.isfinite(positions)):
         raise ClipFormatError(f"{source}: landmark positions contain NaN or infinite values")
-    root_position = positions[:, names.index("pelvis")]
+    root_position = positions[:, names.index("pelvis" if "pelvis" in names else "chest")]
     quaternion = matrix_to_quat(pelvis_frames(landmarks))
     return MotionClip.from_positions(
         HUMAN,
@@ -96,6 +137,22 @@ def human_clip(
         contact_names=list(contact_names or []),
         contacts=contacts,
     )
+
+
+ARM_SPAN = ("left_wrist", "left_elbow", "left_shoulder", "right_shoulder", "right_elbow", "right_wrist")
+
+
+def body_height(points: Mapping[str, np.ndarray]) -> float:
+    """Standing height (m) from landmark trajectories (z up): the head top (or
+    head) over the lowest foot landmark, plus the ankle's height over the
+    sole (median over frames); for a capture without legs, the arm span,
+    which is about a person's height."""
+    if "left_ankle" in points:
+        top = points.get("head_top", points["head"])[:, 2]
+        feet = [points[n][:, 2] for n in ("left_ankle", "right_ankle", "left_toe", "right_toe") if n in points]
+        return float(np.median(top - np.min(feet, axis=0))) + 0.05
+    span = sum(np.linalg.norm(points[a] - points[b], axis=1) for a, b in zip(ARM_SPAN[:-1], ARM_SPAN[1:]))
+    return float(np.median(span))
 
 
 def landmarks_of(clip: MotionClip) -> dict[str, np.ndarray]:

@@ -6,46 +6,82 @@
 captures for round-trip tests and is what the marker fit
 (`hotu_drake.retarget.marker_fit`) matches.
 
-A marker set is a dict (or a YAML file of one) with three sections:
+Two sets are built in: `plug_in_gait` (Vicon Plug-in Gait full body:
+LASI, LKNE, LANK, ...) and `anatomical` (markers on palpable bony
+landmarks, named as in Van Sint Jan's atlas of skeletal landmarks (2007)
+and the Qualisys sports and animation marker sets: L_IAS, L_FLE, L_FME,
+L_FAL, L_TAM, L_HLE, L_RSP, ...; joint centres at the midpoints of the
+epicondyles and malleoli, as the ISB recommends, Wu et al. 2002/2005). A
+reader that is given no set takes the built-in one whose markers the file
+has most of (`choose_marker_set`).
+
+Your own set is a dict, or a YAML file of one:
 
 ```yaml
-extends: plug_in_gait            # optional: start from a built-in set
+extends: anatomical              # optional: start from a built-in set, then override
+mirror: true                     # optional: every left entry also defines the right one
 frames:                          # segment orientations from markers
-  pelvis: {primary: [y, [RASI], [LASI]], secondary: [x, [LPSI, RPSI], [LASI, RASI]]}
+  pelvis: {primary: [y, [R_IAS], [L_IAS]], secondary: [x, [L_IPS, R_IPS], [L_IAS, R_IAS]]}
 landmarks:                       # landmark -> rule
-  neck: [C7, CLAV]               # mean of points
-  chest: {T10: 0.5, STRN: 0.5}   # weighted mean
-  left_hip: {rule: hip_joint_centre, side: left, method: harrington}
-  left_knee: {rule: chord, proximal: left_hip, plane: LTHI, lateral: LKNE, distance: 0.055}
-  left_elbow: {rule: hinge, proximal: left_shoulder, distal: left_wrist, lateral: LELB, distance: 0.04, sign: -1}
-  left_shoulder: {rule: offset, from: LSHO, frame: thorax, offset: [0, 0, -0.05]}
-  left_toe: {rule: offset, from: LTOE, frame: left_foot, offset: udh, optional: true}
-placements:                      # where each marker sits on the nominal 1.61 m UDH
-  LKNE: {link: left_thigh, offset: [0, 0.055, -0.4215]}
+  neck: [CV7, SNJ]               # mean of points
+  chest: {TV8: 0.5, SXS: 0.5}    # weighted mean
+  left_hip: {rule: hip_joint_centre, side: left, asis: [L_IAS, R_IAS], psis: [L_IPS, R_IPS]}
+  left_knee: [L_FLE, L_FME]
+  left_elbow: {rule: hinge, proximal: left_shoulder, distal: left_wrist, lateral: L_HLE, distance: 0.04, sign: -1}
+  left_shoulder: {rule: offset, from: L_SAJ, frame: thorax, offset: [0, 0, -0.05]}
+  left_toe: {rule: offset, from: [L_FM1, L_FM5], frame: left_foot, offset: udh, optional: true}
+placements:                      # where each marker sits on the nominal 1.61 m UDH (optional)
+  L_FLE: {link: left_thigh, offset: [0, 0.05, -0.4215]}
 ```
 
-A point named in a rule is a marker or another landmark. Frames give an
-axis from the mean of the `from` points to the mean of the `to` points
-(`primary` exactly, `secondary` orthogonalised). Rules:
+Sections and keys:
 
-- `hip_joint_centre`: from the ASIS and PSIS markers with the regression of
-  Harrington et al. (2007, J Biomech 40:595) or Bell et al. (1990).
-- `chord`: the joint centre lies in the plane of `proximal`, `plane` and
-  `lateral`, `distance` from `lateral`, with the segment from `proximal`
-  perpendicular to the one to `lateral` (Plug-in Gait's chord function).
-- `hinge`: `distance` from `lateral` along the hinge axis, which is
-  perpendicular to both the proximal and the distal segment; `sign` picks
-  which of the two solutions (the sign of axis . (p - l) x (d - l)).
-- `offset`: a point plus an offset (metres) in a marker frame; `offset:
-  udh` takes the offset the nominal UDH has between its landmark and its
-  virtual markers (for points that are not joint centres: chest, toe, ...).
+- `extends`: a built-in set's frames, landmarks and placements come first;
+  yours replace entries of the same name and add new ones. Inherited rules
+  keep the offsets they had in the built-in set.
+- `mirror`: `true` mirrors every left entry (`left_*` landmarks and frames,
+  markers named `L...` such as `LKNE` or `L_FLE`) that has no right twin:
+  names to their right twins, `side` to right, `sign` negated, lateral
+  offsets (`y`) of placements negated. `[LeftPrefix, RightPrefix]` (for
+  example `[Left, Right]`) names the marker prefixes instead.
+- `frames`: `{primary: [axis, from, to], secondary: [axis, from, to]}`: an
+  axis (x, y or z) from the mean of the `from` points to the mean of the
+  `to` points; `primary` exactly, `secondary` orthogonalised to it; the
+  third axis completes a right-handed frame.
+- `landmarks`: a point name or list (the mean), a `{point: weight}` map
+  (the weighted mean), or a rule:
+  - `hip_joint_centre`: keys `side` (left or right), `method` (`harrington`,
+    Harrington et al. 2007, J Biomech 40:595; or `bell`, Bell et al. 1990),
+    `asis` (left and right ASIS, default `[LASI, RASI]`), `psis` (the PSIS
+    markers, default `[LPSI, RPSI]`).
+  - `chord`: keys `proximal`, `plane`, `lateral`, `distance` (m): the joint
+    centre lies in the plane of the three points, `distance` from
+    `lateral`, with the segment from `proximal` perpendicular to the one
+    to `lateral` (Plug-in Gait's chord function).
+  - `hinge`: keys `proximal`, `distal`, `lateral`, `distance` (m), `sign`
+    (+1 or -1): `distance` from `lateral` along the hinge axis, which is
+    perpendicular to both the proximal and the distal segment; `sign`
+    picks the solution (the sign of axis . (p - l) x (d - l)).
+  - `offset`: keys `from` (a point or list), `frame` (a frame of the set),
+    `offset` (three numbers, metres, in that frame; or `udh`: the offset
+    the nominal UDH has between the landmark and the `from` point, which
+    needs placements of the markers involved).
+  Every landmark form takes `optional: true`: leave it out when its markers
+  are missing.
+- `placements`: `{link: <UDH link>, offset: [x, y, z]}` per marker: where
+  it sits on the nominal UDH (for `offset: udh`, for synthetic captures and
+  for the marker fit). Optional otherwise.
 
-Landmarks are required unless `optional: true`. The built-in set is Vicon
-Plug-in Gait full body (`plug_in_gait`, the default).
+A point named in a rule is a marker or another landmark. A capture may
+cover only part of the body (the torso and arms, say): landmarks of body
+regions whose markers are all missing are left out, and retargeting holds
+those parts at the standing pose; a region with some of its markers
+missing is an error that names them (`human.check_coverage`).
 """
 
 import copy
 import functools
+import logging
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -54,54 +90,77 @@ import numpy as np
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.spec import FINGERS
 from hotu_drake.motion.clip import ClipFormatError, MotionClip
-from hotu_drake.motion.human import LANDMARKS
+from hotu_drake.motion.human import LANDMARKS, REGIONS, check_coverage
+
+log = logging.getLogger("hotu_drake.input")
 
 MarkerSetLike = str | Path | Mapping | None
 AXES = {"x": 0, "y": 1, "z": 2}  # a frame axis or an up axis, by letter
 
 _HIP_REGRESSIONS = ("harrington", "bell")
+HIP_DEFAULTS = {"asis": ["LASI", "RASI"], "psis": ["LPSI", "RPSI"]}  # Plug-in Gait's names
 _RULE_KEYS = {
     "hip_joint_centre": {"side"},
     "chord": {"proximal", "plane", "lateral", "distance"},
     "hinge": {"proximal", "distal", "lateral", "distance"},
     "offset": {"from", "frame", "offset"},
 }
+_OPTIONAL_KEYS = {"hip_joint_centre": {"method", "asis", "psis"}, "chord": set(), "hinge": {"sign"}, "offset": set()}
 NOMINAL_THIGH = 0.4215  # thigh length of the nominal 1.61 m UDH
+MIN_COMMON_MARKERS = 6  # a built-in set is chosen for a file only with at least this many of its markers
 
 
 # --- the built-in Vicon Plug-in Gait full-body marker set -------------------
 
 
-def _mirror(name: str) -> str:
-    """Left name -> right name (LASI -> RASI, left_thigh -> right_thigh)."""
+def _mirror(name: str, prefixes: tuple[str, str] | None = None) -> str:
+    """Left name -> right name (left_thigh -> right_thigh; LASI -> RASI and
+    L_FLE -> R_FLE, or with `prefixes` (left, right) those marker prefixes)."""
     if name.startswith("left_"):
         return "right_" + name[5:]
+    if prefixes is not None:
+        left, right = prefixes
+        return right + name[len(left) :] if name.startswith(left) else name
     if name.startswith("L") and name[1:].isupper():
         return "R" + name[1:]
     return name
 
 
-def _mirror_spec(spec):
+def _mirror_spec(spec, prefixes: tuple[str, str] | None = None):
     """Mirror a left-side rule, frame or placement (names; y and signs flipped)."""
     if isinstance(spec, str):
-        return _mirror(spec)
+        return _mirror(spec, prefixes)
     if isinstance(spec, list):
-        return [_mirror_spec(s) for s in spec]
+        return [_mirror_spec(s, prefixes) for s in spec]
     if isinstance(spec, dict):
         out = {}
         for key, value in spec.items():
             if key == "offset" and "link" in spec:
                 out[key] = [value[0], -value[1], value[2]]
+            elif key == "link":
+                out[key] = _mirror(value)
             elif key == "side":
-                out[key] = "right"
+                out[key] = "right" if value == "left" else value
             elif key == "sign":
                 out[key] = -value
             elif key in ("distance", "method", "rule", "optional", "offset"):
                 out[key] = value
+            elif key in ("asis", "psis"):
+                out[key] = value  # both sides' markers, in a fixed order
             else:
-                out[_mirror(key)] = _mirror_spec(value)
+                out[_mirror(key, prefixes)] = _mirror_spec(value, prefixes)
         return out
     return spec
+
+
+def _mirror_sets(data: dict, prefixes: tuple[str, str] | None) -> None:
+    """Add the right twin of every left entry that has none (`mirror:`)."""
+    for section in ("frames", "landmarks", "placements"):
+        entries = data.get(section) or {}
+        for name, spec in list(entries.items()):
+            twin = _mirror(name, prefixes)
+            if twin != name and twin not in entries:
+                entries[twin] = _mirror_spec(spec, prefixes)
 
 
 def _udh_offset(point, frame: str, optional: bool = True) -> dict:
@@ -200,7 +259,100 @@ def _plug_in_gait() -> dict:
     return {"name": "plug_in_gait", "frames": frames, "landmarks": landmarks, "placements": placements}
 
 
-BUILTIN_MARKER_SETS: dict[str, dict] = {"plug_in_gait": _plug_in_gait()}
+def _anatomical() -> dict:
+    """Markers on palpable bony landmarks (Van Sint Jan 2007; the names of
+    the Qualisys sports and animation marker sets), placed on the nominal UDH.
+
+    Joint centres are midpoints (ISB, Wu et al. 2002/2005): knee between the
+    femoral epicondyles (FLE, FME), ankle between the malleoli (FAL, TAM),
+    elbow between the humeral epicondyles (HLE, HME), wrist between the
+    radial and ulnar styloids (RSP, UHE); hip by Harrington's regression
+    from the ASIS (IAS) and PSIS (IPS); the shoulder 5 cm below the
+    acromion (SAJ). Trunk: C7 (CV7), T8 (TV8), jugular notch (SNJ),
+    xiphoid (SXS); head: four markers (HDF, HDB); feet: calcaneus (FCC) and
+    the first and fifth metatarsal heads (FM1, FM5); hands: the second and
+    fifth metacarpal heads (HM2, HM5), which are also the base knuckles of
+    the index and little fingers. Trochanter (FTC), fibula head (FAX),
+    tibial tuberosity (TTC) and scapula (SCAP) markers are placed but not
+    needed; wands are ignored.
+    """
+    left_placements = {
+        "L_IAS": ("pelvis", (0.0459, 0.1175, 0.0814)),
+        "L_IPS": ("pelvis", (-0.1041, 0.045, 0.0814)),
+        "L_FTC": ("left_thigh", (0.0, 0.08, -0.06)),
+        "L_FLE": ("left_thigh", (0.0, 0.05, -0.4215)),
+        "L_FME": ("left_thigh", (0.0, -0.05, -0.4215)),
+        "L_FAX": ("left_shin", (0.0, 0.05, -0.06)),
+        "L_TTC": ("left_shin", (0.05, 0.0, -0.07)),
+        "L_FAL": ("left_shin", (0.0, 0.04, -0.4099)),
+        "L_TAM": ("left_shin", (0.0, -0.04, -0.4099)),
+        "L_FCC": ("left_foot", (-0.06, 0.0, -0.02)),
+        "L_FM1": ("left_foot", (0.10, -0.03, -0.03)),
+        "L_FM5": ("left_foot", (0.08, 0.035, -0.03)),
+        "L_SAJ": ("torso", (-0.0241, 0.1831, 0.2935)),
+        "L_HLE": ("left_upper_arm", (0.0, 0.035, -0.2748)),
+        "L_HME": ("left_upper_arm", (0.0, -0.035, -0.2748)),
+        "L_RSP": ("left_hand", (0.03, 0.0, 0.0)),
+        "L_UHE": ("left_hand", (-0.03, 0.0, 0.0)),
+        "L_HM2": ("left_hand", (0.0245, -0.0005, -0.137)),
+        "L_HM5": ("left_hand", (-0.0355, -0.0005, -0.132)),
+        "L_HDF": ("head", (0.09, 0.05, 0.175)),
+        "L_HDB": ("head", (-0.09, 0.05, 0.175)),
+    }
+    central = {
+        "CV7": ("torso", (-0.075, 0.0, 0.235)),
+        "TV8": ("torso", (-0.11, 0.0, 0.14)),
+        "SNJ": ("torso", (0.075, 0.0, 0.2128)),
+        "SXS": ("torso", (0.11, 0.0, 0.12)),
+        "R_SCAP": ("torso", (-0.10, -0.09, 0.17)),
+    }
+    placements = {name: {"link": link, "offset": list(offset)} for name, (link, offset) in central.items()}
+    placements |= {name: {"link": link, "offset": list(offset)} for name, (link, offset) in left_placements.items()}
+    asis, psis = ["L_IAS", "R_IAS"], ["L_IPS", "R_IPS"]
+    landmarks = {
+        "pelvis": ["left_hip", "right_hip"],
+        "spine": _udh_offset(["left_hip", "right_hip"], "pelvis"),
+        "chest": _udh_offset(["TV8", "SXS"], "thorax", optional=False),
+        "neck": ["CV7", "SNJ"],
+        "head": _udh_offset(["L_HDF", "R_HDF", "L_HDB", "R_HDB"], "head", optional=False),
+        "head_top": _udh_offset("head", "head"),
+        "head_front": _udh_offset("head", "head"),
+        "left_hip": {"rule": "hip_joint_centre", "side": "left", "method": "harrington", "asis": asis, "psis": psis},
+        "left_knee": ["L_FLE", "L_FME"],
+        "left_ankle": ["L_FAL", "L_TAM"],
+        "left_toe": _udh_offset(["L_FM1", "L_FM5"], "left_foot", optional=False),
+        "left_shoulder": {"rule": "offset", "from": "L_SAJ", "frame": "thorax", "offset": [0.0, 0.0, -0.05]},
+        "left_elbow": ["L_HLE", "L_HME"],
+        "left_wrist": ["L_RSP", "L_UHE"],
+        "left_hand": _udh_offset(["L_HM2", "L_HM5"], "left_hand"),
+        "left_index_1": {"L_HM2": 1.0, "optional": True},
+        "left_little_1": {"L_HM5": 1.0, "optional": True},
+    }
+    frames = {
+        "pelvis": {"primary": ["y", ["R_IAS"], ["L_IAS"]], "secondary": ["x", ["L_IPS", "R_IPS"], ["L_IAS", "R_IAS"]]},
+        "thorax": {
+            "primary": ["z", ["TV8", "SXS"], ["CV7", "SNJ"]],
+            "secondary": ["x", ["CV7", "TV8"], ["SNJ", "SXS"]],
+        },
+        "head": {
+            "primary": ["y", ["R_HDF", "R_HDB"], ["L_HDF", "L_HDB"]],
+            "secondary": ["x", ["L_HDB", "R_HDB"], ["L_HDF", "R_HDF"]],
+        },
+        "left_foot": {
+            "primary": ["x", ["L_FCC"], ["L_FM1", "L_FM5"]],
+            "secondary": ["z", ["L_FCC", "L_FM1", "L_FM5"], ["left_ankle"]],
+        },
+        "left_hand": {
+            "primary": ["z", ["L_HM2", "L_HM5"], ["L_RSP", "L_UHE"]],
+            "secondary": ["x", ["L_UHE"], ["L_RSP"]],
+        },
+    }
+    data = {"name": "anatomical", "frames": frames, "landmarks": landmarks, "placements": placements}
+    _mirror_sets(data, None)
+    return data
+
+
+BUILTIN_MARKER_SETS: dict[str, dict] = {"plug_in_gait": _plug_in_gait(), "anatomical": _anatomical()}
 # Plug-in Gait full-body marker names (the left and right twins of each).
 PLUG_IN_GAIT_MARKERS: tuple[str, ...] = tuple(BUILTIN_MARKER_SETS["plug_in_gait"]["placements"])
 
@@ -282,14 +434,35 @@ def _read_yaml(path: Path) -> dict:
 
 
 def _validated(data: dict, where: str) -> dict:
-    """Merge `extends`, check the sections and every rule; raise `ClipFormatError`."""
+    """Mirror, merge `extends`, check the sections and every rule; raise `ClipFormatError`."""
+    unknown = sorted(set(data) - {"name", "extends", "mirror", "frames", "landmarks", "placements"})
+    if unknown:
+        raise ClipFormatError(
+            f"{where}: unknown key(s) {', '.join(map(str, unknown))} "
+            "(a marker set has name, extends, mirror, frames, landmarks, placements)"
+        )
+    for section in ("frames", "landmarks", "placements"):
+        if not isinstance(data.get(section) or {}, Mapping):
+            raise ClipFormatError(f"{where}: {section} must be a mapping")
+    mirror = data.get("mirror", False)
+    if mirror is not False:
+        ok = mirror is True or (
+            isinstance(mirror, list) and len(mirror) == 2 and all(isinstance(m, str) and m for m in mirror)
+        )
+        if not ok:
+            raise ClipFormatError(f"{where}: mirror must be true or [left prefix, right prefix], not {mirror!r}")
+        data = {k: (dict(v) if isinstance(v, Mapping) else v) for k, v in data.items()}
+        _mirror_sets(data, None if mirror is True else tuple(mirror))
     base = data.get("extends")
     if base is not None:
         if str(base).lower() not in BUILTIN_MARKER_SETS:
-            raise ClipFormatError(f"{where}: extends unknown marker set {base!r}")
-        merged = copy.deepcopy(BUILTIN_MARKER_SETS[str(base).lower()])
+            raise ClipFormatError(
+                f"{where}: extends unknown marker set {base!r} (built in: {', '.join(BUILTIN_MARKER_SETS)})"
+            )
+        merged = copy.deepcopy(_builtin(str(base).lower()))  # inherited `offset: udh` already resolved
         for section in ("frames", "landmarks", "placements"):
             merged[section].update(data.get(section) or {})
+        merged["name"] = data.get("name", where)
         data = merged
     out = {"name": str(data.get("name", where))}
     for section in ("frames", "landmarks", "placements"):
@@ -333,6 +506,16 @@ def _check_rule(name: str, spec, where: str, frames: Mapping) -> None:
         raise ClipFormatError(f"{where}: landmark {name}: rule {rule} needs {', '.join(sorted(missing))}")
     if rule == "hip_joint_centre" and spec.get("method", "harrington") not in _HIP_REGRESSIONS:
         raise ClipFormatError(f"{where}: landmark {name}: method must be one of {', '.join(_HIP_REGRESSIONS)}")
+    if rule == "hip_joint_centre" and spec.get("side") not in ("left", "right"):
+        raise ClipFormatError(f"{where}: landmark {name}: side must be left or right")
+    for key, count in (("asis", 2), ("psis", None)):
+        value = spec.get(key)
+        if rule == "hip_joint_centre" and value is not None:
+            if not isinstance(value, list) or not value or (count and len(value) != count):
+                raise ClipFormatError(f"{where}: landmark {name}: {key} must list {count or 'the'} marker names")
+    unknown = set(spec) - _RULE_KEYS[rule] - _OPTIONAL_KEYS[rule] - {"rule", "optional"}
+    if unknown:
+        raise ClipFormatError(f"{where}: landmark {name}: rule {rule} has no key(s) {', '.join(sorted(unknown))}")
     if rule == "offset" and spec["offset"] != "udh" and np.shape(spec["offset"]) != (3,):
         raise ClipFormatError(f"{where}: landmark {name}: offset must be a 3-vector or 'udh'")
     if rule == "offset" and spec["frame"] not in frames:
@@ -374,7 +557,7 @@ def _references(spec) -> set[str]:
             if key in ("proximal", "distal", "lateral", "plane", "from", "primary", "secondary"):
                 out |= {v for v in _references(value) if v not in AXES}
         if spec.get("rule") == "hip_joint_centre":
-            out |= set(spec.get("asis", ["LASI", "RASI"])) | set(spec.get("psis", ["LPSI", "RPSI"]))
+            out |= set(spec.get("asis", HIP_DEFAULTS["asis"])) | set(spec.get("psis", HIP_DEFAULTS["psis"]))
         return out
     return set()
 
@@ -447,8 +630,8 @@ class _Resolver:
         return self.point(spec["from"]) + self.frame(spec["frame"]) @ np.asarray(spec["offset"], dtype=float)
 
     def _hip(self, spec) -> np.ndarray:
-        left_asis, right_asis = (self.point(n) for n in spec.get("asis", ["LASI", "RASI"]))
-        psis = self.point(list(spec.get("psis", ["LPSI", "RPSI"])))
+        left_asis, right_asis = (self.point(n) for n in spec.get("asis", HIP_DEFAULTS["asis"]))
+        psis = self.point(list(spec.get("psis", HIP_DEFAULTS["psis"])))
         return hip_joint_centre(left_asis, right_asis, psis, spec["side"], spec.get("method", "harrington"))
 
 
@@ -534,30 +717,70 @@ def hinge_point(
 
 
 def markers_to_landmarks(
-    markers: Mapping[str, np.ndarray], marker_set: MarkerSetLike = None, *, source: str = "markers"
+    markers: Mapping[str, np.ndarray], marker_set: MarkerSetLike = None, *, source: str = "markers", say: bool = True
 ) -> dict[str, np.ndarray]:
     """{landmark: (T, 3)} of the human skeleton from {marker: (T, 3)}.
 
-    A required landmark whose markers are absent raises `ClipFormatError`
-    (message starting with `source`); optional ones are then left out.
+    Optional landmarks whose markers are absent are left out; so are
+    required ones when every landmark of their body region is missing (a
+    capture of part of the body, said on the `hotu_drake.input` logger).
+    Otherwise a missing marker raises `ClipFormatError` starting with
+    `source`, naming the markers the set looked for and those the file has.
     Points of the set that are not human landmarks are helpers only.
     """
     ms = load_marker_set(marker_set)
     resolver = _Resolver(markers, ms, source)
-    out = {}
+    out: dict[str, np.ndarray] = {}
+    missing: dict[str, str] = {}  # required landmark -> a marker it lacks
     for name, spec in ms["landmarks"].items():
         optional = isinstance(spec, Mapping) and bool(spec.get("optional", False))
         try:
             value = resolver.point(name)
-        except _Missing as missing:
-            if optional:
-                continue
-            raise ClipFormatError(f"{source}: landmark {name} has no marker {missing.args[0]}") from None
+        except _Missing as absent:
+            if not optional:
+                missing[name] = absent.args[0]
+            continue
         if name in LANDMARKS:
             out[name] = value
-    if not out:
-        raise ClipFormatError(f"{source}: the marker set gives no human landmarks")
+    if not missing:
+        return out
+    try:
+        regions = check_coverage(out, source)
+        for region, members in REGIONS.items():  # a region left out must have none of its markers
+            specs = [ms["landmarks"][m] for m in members if m in ms["landmarks"]]
+            direct = set().union(set(), *map(_references, specs)) - set(ms["landmarks"])
+            if region not in regions and direct & set(markers):
+                raise ClipFormatError(region)
+    except ClipFormatError:
+        raise ClipFormatError(_unfit_message(ms["name"], missing, markers, source)) from None
+    absent = [r.replace("_", " ") for r in REGIONS if r not in regions]
+    if say:
+        log.info("%s: no markers for the %s: those parts hold their standing pose", source, ", ".join(absent))
     return out
+
+
+def _unfit_message(name: str, missing: Mapping[str, str], markers: Mapping, source: str) -> str:
+    wanted: dict[str, list[str]] = {}
+    for landmark, marker in missing.items():
+        wanted.setdefault(marker, []).append(landmark)
+    looked = [f"{marker} (for {', '.join(landmarks[:2])})" for marker, landmarks in sorted(wanted.items())]
+    has = sorted(markers)
+    shown = ", ".join(has[:16]) + (f" and {len(has) - 16} more" if len(has) > 16 else "")
+    return (
+        f"{source}: the marker set '{name}' looks for markers {', '.join(looked[:6])}"
+        f"{' ...' if len(looked) > 6 else ''} that the file does not have (it has {shown}); "
+        f"choose a set with --marker-set (built in: {', '.join(BUILTIN_MARKER_SETS)}) or write one "
+        "(see hotu_drake.motion.marker_sets)"
+    )
+
+
+def choose_marker_set(labels) -> str | None:
+    """The built-in set that has the most markers in common with `labels`
+    (at least `MIN_COMMON_MARKERS`), or None."""
+    labels = set(labels)
+    common = {name: len(set(ms["placements"]) & labels) for name, ms in BUILTIN_MARKER_SETS.items()}
+    best = max(common, key=common.get)
+    return best if common[best] >= MIN_COMMON_MARKERS else None
 
 
 # --- virtual markers on the UDH ----------------------------------------------

@@ -1,12 +1,14 @@
 """Retarget demonstrations onto the UDH and the robots.
 
     python -m hotu_drake.retarget INPUT [INPUT ...] --robot udh|naviai|h1|bruce|walker|curi|all
-                                  --out DIR [--hands full|none] [--skeleton-map FILE]
-                                  [--report FILE.json] [--html FILE.html]
+                                  --out DIR [--hands full|none] [--skeleton-map FILE] [--marker-set SET]
+                                  [--up AXIS] [--allow-implausible] [--report FILE.json] [--html FILE.html]
 
 Writes DIR/<clip>_<robot>.npz for every input and robot (human -> UDH ->
-robot). A bad input is reported in one line and skipped; the others are
-still processed; the exit code is 2 if any input failed.
+robot). Output paths are checked before any work. A bad input is reported
+in one line and skipped; the others are still processed; the exit code is
+2 if any input failed. What the readers decided (the up axis, the marker
+set, body parts a capture lacks) is said in `note:` lines.
 """
 
 import json
@@ -15,12 +17,13 @@ import time
 from pathlib import Path
 
 from hotu_drake import embodiment
-from hotu_drake.cli import ArgumentParser, UserError, run_cli
-from hotu_drake.io import write_text_atomic
+from hotu_drake.cli import ArgumentParser, UserError, run_cli, show_notes
+from hotu_drake.io import check_output_path, write_text_atomic
 from hotu_drake.motion.clip import ClipFormatError
 from hotu_drake.motion.load import load_motion
 from hotu_drake.retarget.metrics import report
 from hotu_drake.retarget.pipeline import ROBOTS, has_fingers, to_robot, to_udh
+from hotu_drake.rotations import signed_axis
 
 TARGETS = ("udh", *ROBOTS)
 
@@ -34,7 +37,18 @@ def _parser() -> ArgumentParser:
     parser.add_argument("--robot", required=True, help=f"one of {', '.join(TARGETS)}, or all")
     parser.add_argument("--out", required=True, help="output folder for <clip>_<robot>.npz")
     parser.add_argument("--hands", choices=embodiment.HANDS_VARIANTS, default="full", help="finger joints")
-    parser.add_argument("--skeleton-map", help="YAML map of landmarks to the file's joints or markers")
+    parser.add_argument("--skeleton-map", help="BVH: a YAML map of landmarks to the file's joints")
+    parser.add_argument(
+        "--marker-set",
+        help="C3D: a built-in marker set (plug_in_gait, anatomical) or a YAML file of one "
+        "(default: the built-in set the file's markers fit best)",
+    )
+    parser.add_argument("--up", help="the file's up axis (x, y or z, optionally signed), if the data misleads")
+    parser.add_argument(
+        "--allow-implausible",
+        action="store_true",
+        help="accept a skeleton of inhuman height or a root that jumps (a cut between takes)",
+    )
     parser.add_argument("--report", help="write per-clip, per-robot figures as JSON")
     parser.add_argument("--html", help="write a Meshcat replay (source, UDH and robots side by side)")
     return parser
@@ -64,9 +78,16 @@ def main(argv: list[str] | None = None) -> int:
     robots = list(TARGETS) if args.robot == "all" else [args.robot]
     if any(r not in TARGETS for r in robots):
         raise UserError(f"unknown robot '{args.robot}'; choose from {', '.join(TARGETS)} or all")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise UserError(f"{out}: is a file; give a folder")
+    out = check_output_path(args.out, folder=True)
+    for extra in (args.report, args.html):
+        if extra:
+            check_output_path(extra)
+    if args.up is not None:
+        try:
+            signed_axis(args.up)
+        except ValueError as error:
+            raise UserError(f"--up: {error}") from None
+    show_notes()
     progress = Progress(len(args.inputs) * (1 + len([r for r in robots if r != "udh"])))
     figures: dict[str, dict] = {}
     failures: list[str] = []
@@ -74,7 +95,13 @@ def main(argv: list[str] | None = None) -> int:
     for path in args.inputs:
         stem = Path(path).stem
         try:
-            source = load_motion(path, args.skeleton_map)
+            source = load_motion(
+                path,
+                args.skeleton_map,
+                marker_set=args.marker_set,
+                up=args.up,
+                check_plausible=not args.allow_implausible,
+            )
         except ClipFormatError as error:
             print(f"error: {error}", file=sys.stderr)
             failures.append(str(error))

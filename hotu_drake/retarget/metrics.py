@@ -11,7 +11,7 @@ from hotu_drake import embodiment as embodiments
 from hotu_drake.embodiment.landmarks import landmark_placements
 from hotu_drake.embodiment.spec import FINGERS
 from hotu_drake.motion.clip import MotionClip
-from hotu_drake.motion.human import landmarks_of
+from hotu_drake.motion.human import body_height, landmarks_of
 from hotu_drake.motion.udh_skeleton import points_on_clip
 from hotu_drake.retarget import frames
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
@@ -40,7 +40,8 @@ def clip_landmarks(emb: embodiments.Embodiment, clip: MotionClip) -> dict[str, n
 
 
 def _heading(points: dict[str, np.ndarray]) -> np.ndarray:
-    return heading_rotation(frames.pelvis_frame(points))
+    """The body's heading: the pelvis's, or the chest's for a capture of the upper body."""
+    return heading_rotation(frames.pelvis_frame(points) if "left_hip" in points else frames.chest_frame(points))
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -49,11 +50,6 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 def _angles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.degrees(np.arccos(np.clip(np.sum(_unit(a) * _unit(b), axis=-1), -1.0, 1.0)))
-
-
-def _height(points: dict[str, np.ndarray]) -> float:
-    feet = np.minimum(points["left_ankle"][:, 2], points["right_ankle"][:, 2])
-    return float(np.median(points["head_top"][:, 2] - feet)) if "head_top" in points else 1.0
 
 
 def report(source: MotionClip, result: MotionClip, emb: embodiments.Embodiment, seconds: float) -> dict:
@@ -70,10 +66,8 @@ def report(source: MotionClip, result: MotionClip, emb: embodiments.Embodiment, 
         "part_direction_error_deg": {},
     }
     legged = "left_hip" in dst and "left_hip" in src
-    h_src = _heading(src) if "left_hip" in src else None
+    h_src = _heading(src)
     h_dst = _heading(dst) if legged else h_src
-    if h_dst is None:
-        h_dst = h_src
     for part, frame_of in PART_FRAMES.items():
         needed = {"neck", "head_top", "left_shoulder", "right_shoulder", "chest"}
         if emb.part_dof[part] > 0 and needed <= set(src) and needed <= set(dst):
@@ -108,7 +102,8 @@ def report(source: MotionClip, result: MotionClip, emb: embodiments.Embodiment, 
 
     keys = [k for k in KEY_BODIES if k in src and k in dst]
     if keys and "pelvis" in dst:
-        hs, hd = _height(src), _height(dst) if legged else _height(src)
+        hs = body_height(src)
+        hd = body_height(dst) if legged else hs
         errs = []
         for key in keys:
             base = KEY_BODIES[key]

@@ -57,7 +57,9 @@ class _Part:
 
 def _source_frames(src: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     """Body frames of the source over all frames, where its landmarks allow."""
-    out = {"pelvis": frames.pelvis_frame(src), "chest": frames.chest_frame(src)}
+    out = {"chest": frames.chest_frame(src)}
+    # A capture of the upper body has no pelvis: the root stands upright, turned with the chest.
+    out["pelvis"] = frames.pelvis_frame(src) if "left_hip" in src else heading_rotation(out["chest"])
     if "head_top" in src:
         out["head"] = frames.head_frame(src)
     lateral = out["pelvis"][:, :, 1]
@@ -296,7 +298,7 @@ class Retargeter:
         self, src: dict[str, np.ndarray], fps: float, source: MotionClip | None = None
     ) -> MotionClip:
         """Retarget landmark trajectories {name: (T, 3)} sampled at `fps`."""
-        frames_count = len(src["pelvis"])
+        frames_count = len(next(iter(src.values())))
         src_frames = _source_frames(src)
         contacts = {}
         if self.legged:  # the source's own foot contacts carry through human -> UDH -> robot
@@ -425,12 +427,17 @@ class RetargetStream:
         """
         r, q = self.retargeter, self.q
         src_frames = _source_frames(src) if src_frames is None else src_frames
-        if r.spec.floating_base:
+        pelvis = src["pelvis"][0] if "pelvis" in src else None
+        if r.spec.floating_base and pelvis is not None:
             root_rotation = src_frames[r.root_frame][0] @ self.root_rest.T
-            root_position = src["pelvis"][0] * self.ratio - root_rotation @ self.pelvis_offset
-        else:  # a planar base follows the pelvis over the floor
+            root_position = pelvis * self.ratio - root_rotation @ self.pelvis_offset
+        elif r.spec.floating_base:  # the upper body only: stand under the chest, facing its way
+            root_rotation = heading_rotation(src_frames["chest"][0] @ self.root_rest.T)
+            root_position = np.array([src["chest"][0][0], src["chest"][0][1], r.embodiment.standing_root_height])
+        else:  # a planar base follows the pelvis (or the chest) over the floor
+            over = pelvis if pelvis is not None else src["chest"][0]
             heading = heading_rotation(src_frames["pelvis"][0])
-            q[r.base] = [src["pelvis"][0][0], src["pelvis"][0][1], np.arctan2(heading[1, 0], heading[0, 0])]
+            q[r.base] = [over[0], over[1], np.arctan2(heading[1, 0], heading[0, 0])]
             root_rotation, root_position = np.eye(3), np.zeros(3)
         root_position[2] += self.height_offset
         sweeps = r.options.first_frame_sweeps if self.count == 0 else self.sweeps
