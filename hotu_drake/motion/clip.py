@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from hotu_drake.cli import UserError
+from hotu_drake.errors import InputError
 from hotu_drake.io import atomic_output
 
 FORMAT_VERSION = 1
@@ -56,8 +57,54 @@ _REQUIRED = (
 )
 
 
+_ARRAYS = (
+    "joint_positions",
+    "joint_velocities",
+    "root_position",
+    "root_quaternion",
+    "root_linear_velocity",
+    "root_angular_velocity",
+    "key_body_positions",
+)
+
+
 class ClipFormatError(UserError):
     """A clip file or array that does not follow the format."""
+
+
+def _scalar(arrays: dict, key: str, path: Path, kind: type):
+    """A 0-d entry of a clip file as `kind` (str, int or float), checked."""
+    value = arrays[key]
+    ok = value.shape == () and (
+        value.dtype.kind in "US" if kind is str else value.dtype.kind in ("iu" if kind is int else "iuf")
+    )
+    if not ok:
+        raise ClipFormatError(f"{path}: {key} must be a single {kind.__name__}, not {value.dtype} {value.shape}")
+    return kind(value.item() if kind is not str else str(value))
+
+
+def _names(arrays: dict, key: str, path: Path) -> list[str]:
+    value = arrays.get(key, np.zeros(0, dtype=str))
+    if value.ndim != 1 or (value.size and value.dtype.kind not in "US"):
+        raise ClipFormatError(f"{path}: {key} must be a list of names, not {value.dtype} {value.shape}")
+    names = [str(s) for s in value]
+    if len(set(names)) != len(names):
+        raise ClipFormatError(f"{path}: {key} repeats a name")
+    return names
+
+
+def _numbers(arrays: dict, key: str, path: Path) -> np.ndarray:
+    value = arrays[key]
+    if value.dtype.kind not in "iuf":
+        raise ClipFormatError(f"{path}: {key} must hold numbers, not {value.dtype}")
+    return value.astype(np.float64, copy=False)
+
+
+def _flags(arrays: dict, key: str, path: Path) -> np.ndarray:
+    value = arrays[key]
+    if value.dtype.kind not in "biu" or (value.size and not np.isin(value, (0, 1)).all()):
+        raise ClipFormatError(f"{path}: {key} must hold true/false flags")
+    return value.astype(bool, copy=False)
 
 
 @dataclass
@@ -136,23 +183,29 @@ class MotionClip:
     def times(self) -> np.ndarray:
         return np.arange(self.num_frames) / self.fps
 
+    def _index(self, names: list[str], name: str, what: str) -> int:
+        if name not in names:
+            shown = ", ".join(names[:8]) + (" ..." if len(names) > 8 else "")
+            raise InputError(f"no {what} named {name!r} (it has {shown or 'none'})", self.source, what)
+        return names.index(name)
+
     def joint(self, name: str) -> np.ndarray:
         """The trajectory of one joint."""
-        return self.joint_positions[:, self.joint_names.index(name)]
+        return self.joint_positions[:, self._index(self.joint_names, name, "joint")]
 
     def key_body(self, name: str) -> np.ndarray:
         """The (T, 3) trajectory of one key body."""
-        return self.key_body_positions[:, self.key_body_names.index(name)]
+        return self.key_body_positions[:, self._index(self.key_body_names, name, "key body")]
 
     def contact(self, name: str) -> np.ndarray:
-        if self.contacts is None or name not in self.contact_names:
-            raise KeyError(f"clip has no contact named {name!r}")
-        return self.contacts[:, self.contact_names.index(name)]
+        if self.contacts is None:
+            raise InputError(f"no contacts (asked for {name!r})", self.source, "contact")
+        return self.contacts[:, self._index(self.contact_names, name, "contact")]
 
     def object_pose(self, name: str) -> np.ndarray:
-        if self.object_poses is None or name not in self.object_names:
-            raise KeyError(f"clip has no object named {name!r}")
-        return self.object_poses[:, self.object_names.index(name)]
+        if self.object_poses is None:
+            raise InputError(f"no objects (asked for {name!r})", self.source, "object")
+        return self.object_poses[:, self._index(self.object_names, name, "object")]
 
     def validate(self, where: str = "clip") -> None:
         """Raise `ClipFormatError` on wrong shapes, NaNs or zero frames."""
@@ -190,7 +243,9 @@ class MotionClip:
                 raise ClipFormatError(f"{where}: part {part} names unknown joints {sorted(unknown)[:3]}")
 
     def slice(self, start: int, stop: int) -> "MotionClip":
-        """Frames [start, stop) as a new clip."""
+        """Frames [start, stop) as a new clip (`InputError` for an empty or outside range)."""
+        if not (isinstance(start, int) and isinstance(stop, int) and 0 <= start < stop <= self.num_frames):
+            raise InputError(f"frames [{start}, {stop}) are not a range of its {self.num_frames}", self.source, "slice")
         s = np.s_[start:stop]
         return MotionClip(
             embodiment=self.embodiment,
@@ -257,34 +312,32 @@ class MotionClip:
         missing = [key for key in _REQUIRED if key not in arrays]
         if missing:
             raise ClipFormatError(f"{path}: not a hotu_drake clip (missing {', '.join(missing[:3])})")
-        version = int(arrays["format_version"])
+        version = _scalar(arrays, "format_version", path, int)
         if version != FORMAT_VERSION:
             raise ClipFormatError(f"{path}: clip format version {version} is not supported (expected 1)")
         try:
-            part_index = json.loads(str(arrays.get("part_index", "{}")))
+            part_index = json.loads(_scalar(arrays, "part_index", path, str) if "part_index" in arrays else "{}")
         except json.JSONDecodeError:
             raise ClipFormatError(f"{path}: part_index is not valid JSON") from None
-        object_names = [str(s) for s in arrays.get("object_names", [])]
-        contact_names = [str(s) for s in arrays.get("contact_names", [])]
+        if not isinstance(part_index, dict) or not all(
+            isinstance(v, list) and all(isinstance(j, str) for j in v) for v in part_index.values()
+        ):
+            raise ClipFormatError(f"{path}: part_index must map parts to lists of joint names")
+        object_names = _names(arrays, "object_names", path)
+        contact_names = _names(arrays, "contact_names", path)
         clip = MotionClip.__new__(MotionClip)
         clip.__dict__.update(
-            embodiment=str(arrays["embodiment"]),
-            source=str(arrays["source"]),
-            fps=float(arrays["fps"]),
-            joint_names=[str(s) for s in arrays["joint_names"]],
-            joint_positions=arrays["joint_positions"],
-            joint_velocities=arrays["joint_velocities"],
-            root_position=arrays["root_position"],
-            root_quaternion=arrays["root_quaternion"],
-            root_linear_velocity=arrays["root_linear_velocity"],
-            root_angular_velocity=arrays["root_angular_velocity"],
-            key_body_names=[str(s) for s in arrays["key_body_names"]],
-            key_body_positions=arrays["key_body_positions"],
+            embodiment=_scalar(arrays, "embodiment", path, str),
+            source=_scalar(arrays, "source", path, str),
+            fps=_scalar(arrays, "fps", path, float),
+            joint_names=_names(arrays, "joint_names", path),
+            key_body_names=_names(arrays, "key_body_names", path),
             part_index=part_index,
             object_names=object_names,
-            object_poses=arrays.get("object_poses") if object_names else None,
+            object_poses=_numbers(arrays, "object_poses", path) if object_names else None,
             contact_names=contact_names,
-            contacts=arrays.get("contacts") if contact_names else None,
+            contacts=_flags(arrays, "contacts", path) if contact_names else None,
+            **{key: _numbers(arrays, key, path) for key in _ARRAYS},
         )
         clip.validate(str(path))
         return clip

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hotu_drake.errors import check_number
 from hotu_drake.io import atomic_output
 from hotu_drake.motion.clip import ClipFormatError, MotionClip
 
@@ -34,6 +35,8 @@ LENGTH_UNITS = {
     "mm": 1e-3,
 }
 RIGID_BODY = "rigid body"
+RATE_RANGE = (1.0, 10000.0)  # Hz
+UNIT_TOLERANCE = 0.01  # how far a recorded quaternion's norm may be from 1
 _ROTATION = ("X", "Y", "Z", "W")
 _POSITION = ("X", "Y", "Z")
 
@@ -64,6 +67,7 @@ def read_optitrack_csv(
     columns = _rigid_body_columns(rows, type_row, name_row, group_row, path, meta)
     data = _data_rows(rows, group_row + 1, path)
     values = _numbers(data, columns, path)  # (T, m, 7): px py pz qx qy qz qw
+    _check_rotations(values, list(columns), data, path)
     rate = _frame_rate(fps, meta, data, path)
     scale = LENGTH_UNITS.get(meta.get("length units", "meters").strip().lower())
     if scale is None:
@@ -183,37 +187,52 @@ def _numbers(data: list[list[str]], columns: dict[str, list[int]], path: Path) -
                         out[t, k, j] = float(text)
                     except ValueError:
                         raise ClipFormatError(f"{path}: frame {cells[0]}: {text[:20]!r} is not a number") from None
-    out[~np.isfinite(out)] = np.nan
+                    if not np.isfinite(out[t, k, j]):  # an empty cell is an occlusion; a written NaN is not
+                        name = list(columns)[k]
+                        raise ClipFormatError(f"{path}: frame {cells[0]}: body {name}: {text[:20]!r} is not finite")
     return out
+
+
+def _check_rotations(values: np.ndarray, names: list[str], data: list[list[str]], path: Path) -> None:
+    """Every recorded rotation (a frame with all seven cells) is a unit quaternion."""
+    seen = np.all(np.isfinite(values), axis=-1)  # (T, m)
+    norms = np.linalg.norm(values[..., 3:], axis=-1)
+    bad = seen & (np.abs(norms - 1.0) > UNIT_TOLERANCE)
+    if bad.any():
+        t, k = np.argwhere(bad)[0]
+        raise ClipFormatError(
+            f"{path}: frame {_cell(data[t], 0)}: body {names[k]}: the rotation is not a unit quaternion "
+            f"(norm {norms[t, k]:.3g})"
+        )
 
 
 def _frame_rate(fps: float | None, meta: dict[str, str], data: list[list[str]], path: Path) -> float:
     """`fps`, else Export (or Capture) Frame Rate, else from the time column."""
     if fps is not None:
-        if not np.isfinite(fps) or fps <= 0:
-            raise ClipFormatError(f"{path}: fps must be a positive number, got {fps}")
-        return float(fps)
+        return check_number(fps, "fps", path, low=RATE_RANGE[0], high=RATE_RANGE[1], unit="Hz")
     for key in ("export frame rate", "capture frame rate"):
         try:
             rate = float(meta.get(key, ""))
         except ValueError:
             continue
         if np.isfinite(rate) and rate > 0:
-            return rate
+            return check_number(rate, key.title(), path, low=RATE_RANGE[0], high=RATE_RANGE[1], unit="Hz")
     try:
         times = np.array([float(_cell(cells, 1)) for cells in data])
         step = float(np.median(np.diff(times)))
     except ValueError:
         step = np.nan
     if len(data) > 1 and np.isfinite(step) and step > 0:
-        return 1.0 / step
+        return check_number(
+            1.0 / step, "the time column's rate", path, low=RATE_RANGE[0], high=RATE_RANGE[1], unit="Hz"
+        )
     raise ClipFormatError(f"{path}: no frame rate in the header or the time column")
 
 
 def _fill(body: np.ndarray) -> np.ndarray | None:
     """Interpolate the missing frames of one body's (T, 7) px py pz qx qy qz qw; None if never seen."""
     norms = np.linalg.norm(body[:, 3:], axis=1)
-    valid = np.all(np.isfinite(body), axis=1) & (norms > 1e-6)
+    valid = np.all(np.isfinite(body), axis=1)
     if not valid.any():
         return None
     body = body.copy()

@@ -18,8 +18,8 @@ from pathlib import Path
 
 from hotu_drake import embodiment
 from hotu_drake.cli import ArgumentParser, UserError, run_cli, show_notes
+from hotu_drake.errors import InputError
 from hotu_drake.io import check_output_path, write_text_atomic
-from hotu_drake.motion.clip import ClipFormatError
 from hotu_drake.motion.load import load_motion
 from hotu_drake.retarget.metrics import report
 from hotu_drake.retarget.pipeline import ROBOTS, has_fingers, to_robot, to_udh
@@ -102,7 +102,7 @@ def main(argv: list[str] | None = None) -> int:
                 up=args.up,
                 check_plausible=not args.allow_implausible,
             )
-        except ClipFormatError as error:
+        except InputError as error:  # a bad input is skipped; the others are still retargeted
             print(f"error: {error}", file=sys.stderr)
             failures.append(str(error))
             progress.done += 1 + len([r for r in robots if r != "udh"])
