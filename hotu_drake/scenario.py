@@ -16,6 +16,8 @@ the layout of hotu_drake 0.1 (`plant:`, `reference:`, `policy:` sections)
 still load; `LEGACY_FIELDS` says where each of their fields went.
 """
 
+import dataclasses
+import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -312,6 +314,48 @@ def _upgrade_legacy(raw: dict) -> tuple[dict, Driver]:
     return data, driver
 
 
+def _mistyped(raw, default, prefix: str = "") -> tuple[str, object, str] | None:
+    """(field, value, what it should be) of the first value in a raw scenario
+    mapping that cannot fill the field of `default` it names, or None."""
+    if not isinstance(raw, dict):
+        return None
+    hints = typing.get_type_hints(type(default)) if dataclasses.is_dataclass(default) else {}
+    for key, value in raw.items():
+        if str(key).startswith("_"):
+            continue
+        field, current = f"{prefix}{key}", getattr(default, str(key), None)
+        if isinstance(current, bool):
+            if not isinstance(value, bool):
+                return field, value, "true or false"
+        elif isinstance(current, int | float):
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                return field, value, "a number"
+        elif isinstance(current, str):
+            if not isinstance(value, str):
+                return field, value, "a name"
+        elif isinstance(current, list):
+            if not isinstance(value, list):
+                return field, value, "a list"
+            element = typing.get_args(hints.get(str(key), list))[:1]
+            for i, item in enumerate(value):
+                if element and dataclasses.is_dataclass(element[0]):
+                    found = _mistyped(item, element[0](), f"{field}[{i}].")
+                elif isinstance(item, bool) or not isinstance(item, int | float):
+                    found = (f"{field}[{i}]", item, "a number")
+                else:
+                    found = None
+                if found:
+                    return found
+        elif current is not None:
+            if isinstance(value, dict) and "_tag" in value:  # a tagged union (the driver)
+                kinds = {cls.__name__: cls for cls in typing.get_args(Driver)}
+                current = kinds.get(str(value["_tag"]).lstrip("!"), type(current))()
+            found = _mistyped(value, current, f"{field}.")
+            if found:
+                return found
+    return None
+
+
 def _scenario_fields() -> set[str]:
     return set(Scenario.__dataclass_fields__)
 
@@ -392,6 +436,10 @@ def load_scenario(path: str | Path, name: str | None = None) -> Scenario:
         else:
             scenario = yaml_load_typed(schema=Scenario, data=yaml_dump(raw))
     except Exception as error:  # the YAML reader raises many kinds
+        found = _mistyped(raw, Scenario())
+        if found is not None:
+            field, value, kind = found
+            raise UserError(f"{value!r} is not {kind}", where, field) from None
         raise UserError(f"{where}: not a valid scenario ({_first_line(error)})") from None
     scenario.base_dir = str(path.resolve().parent)
     scenario.source = where

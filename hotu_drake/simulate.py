@@ -24,7 +24,7 @@ import numpy as np
 
 from hotu_drake.cli import ArgumentParser, positive_float, run_cli
 from hotu_drake.diagrams import build_simulation
-from hotu_drake.io import write_text_atomic
+from hotu_drake.io import check_output_path, write_text_atomic
 from hotu_drake.scenario import Scenario, load_scenario, shipped_scenarios
 
 CHUNK = 0.05  # s between checks of falls and torques
@@ -95,7 +95,12 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if not args.scenario:
         parser.error("give a scenario (a shipped name or a file)")
+    if args.html:
+        check_output_path(args.html)
     scenario = load_scenario(args.scenario, args.name)
+    if args.duration is not None:  # the scenario's own bounds, on the duration asked for
+        scenario.duration = args.duration
+        scenario.validate("--duration")
     meshcat = None
     if args.html:
         from pydrake.geometry import StartMeshcat

@@ -14,6 +14,8 @@ import sys
 from hotu_drake import embodiment
 from hotu_drake.bench.standing import machine, pin_to_one_core, standing_realtime_factor
 from hotu_drake.cli import ArgumentParser, UserError, positive_float, run_cli
+from hotu_drake.errors import check_number
+from hotu_drake.scenario import LIMITS, MAX_PLANT_STEPS
 
 
 def _retarget(args) -> int:
@@ -75,6 +77,8 @@ def _env(args) -> int:
 
     if args.envs < 1 or args.envs > 64:
         raise UserError("--envs must be between 1 and 64")
+    if args.seconds > 3600:
+        raise UserError("--seconds must be at most 3600")
     emb = embodiment.load(args.robot, args.hands)
     reference_clips(emb, args.motions)  # retarget (or load from the cache) once, before timing
     report: dict = {"benchmark": "env", "machine": machine(), "robot": args.robot, "hands": args.hands}
@@ -151,8 +155,13 @@ def main(argv: list[str] | None = None) -> int:
         raise UserError("--seconds must be at most 3600")
     if args.command == "diagram":
         return _diagram(args, names)
-    if args.time_step > 0.05:
-        raise UserError("--time-step must be at most 0.05 s")
+    check_number(
+        args.time_step, "--time-step", low=LIMITS["time_step"]["low"], high=LIMITS["time_step"]["high"], unit="s"
+    )
+    if args.seconds / args.time_step > MAX_PLANT_STEPS:
+        raise UserError(
+            f"--seconds {args.seconds:g} at --time-step {args.time_step:g} is more than {MAX_PLANT_STEPS:.0e} steps"
+        )
     hands = ("full", "none") if args.hands == "both" else (args.hands,)
     self_collision = not args.no_self_collision
     pin_to_one_core()

@@ -6,8 +6,12 @@
 markers (for synthetic captures and round trips).
 """
 
+import json
 import logging
 import struct
+import subprocess
+import sys
+import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -28,6 +32,8 @@ from hotu_drake.rotations import signed_axis, up_from_body, up_rotation
 log = logging.getLogger("hotu_drake.input")
 
 RATE_RANGE = (1.0, 10000.0)  # Hz: what a motion capture records at
+CHILD_SECONDS = 10.0  # for ezc3d to read a file, plus a second per 10 MB
+CHILD_MEMORY = 2 << 30  # bytes of address space for the reading child, plus 20 times the file size
 UNIT_SCALES = {"mm": 1e-3, "cm": 1e-2, "dm": 0.1, "m": 1.0, "in": 0.0254, "inch": 0.0254, "ft": 0.3048}
 
 
@@ -48,21 +54,55 @@ def _check_header(path: Path) -> int:
     if len(parameters) < 4:
         raise ClipFormatError(f"{path}: truncated C3D file (no parameter section)")
     order = ">" if parameters[3] == 86 else "<"  # 84 Intel, 85 DEC, 86 MIPS (big-endian)
-    first, last = struct.unpack(order + "HH", header[6:10])
+    points, analog, first, last = struct.unpack(order + "HHHH", header[2:10])
     if last < first:
         raise ClipFormatError(f"{path}: the C3D file has no frames")
-    return last - first + 1
+    frames = last - first + 1
+    # The header's own promise: stop here if the file cannot hold it (a cut
+    # file, or a header that would have the reader allocate without bound).
+    data_start = struct.unpack(order + "H", header[16:18])[0]
+    # Float data when the scale is negative; DEC floats are not IEEE: count 2 bytes (a lower bound).
+    float_data = parameters[3] != 85 and struct.unpack(order + "f", header[12:16])[0] < 0
+    needed = (max(data_start, 1) - 1) * 512 + frames * (4 * points + analog) * (4 if float_data else 2)
+    size = path.stat().st_size
+    if size < needed:
+        raise ClipFormatError(f"{path}: truncated: the header promises {frames} frames, the file holds fewer")
+    return frames
 
 
-def _labels(parameters: Mapping) -> list[str]:
-    """POINT:LABELS, continued in LABELS2, LABELS3, ... for large marker sets."""
-    group = parameters["POINT"]
-    labels = list(group["LABELS"]["value"]) if "LABELS" in group else []
-    k = 2
-    while f"LABELS{k}" in group:
-        labels += list(group[f"LABELS{k}"]["value"])
-        k += 1
-    return [str(label).strip() for label in labels]
+def _read_in_child(path: Path) -> dict:
+    """What `read_c3d` needs of a file, read by ezc3d in a process of its own
+    (`c3d_child`): ezc3d is C++, and a hostile file can crash it, make it
+    hang or make it allocate without bound; there, with a time and a memory
+    limit, that is one error line, not the end of the program."""
+    size = path.stat().st_size
+    memory, seconds = CHILD_MEMORY + 20 * size, CHILD_SECONDS + size / 10e6
+    with tempfile.TemporaryDirectory(prefix="hotu_drake_c3d_") as folder:
+        out = Path(folder) / "c3d.npz"
+        command = [sys.executable, "-m", "hotu_drake.motion.c3d_child", str(path), str(out), str(memory)]
+        try:
+            result = subprocess.run(command, capture_output=True, text=True, timeout=seconds)
+        except subprocess.TimeoutExpired:
+            raise ClipFormatError(
+                f"{path}: not a readable C3D file (no answer from the reader in {seconds:.0f} s)"
+            ) from None
+        if result.returncode != 0 or not out.is_file():
+            lines = result.stderr.strip().splitlines()
+            reason = (
+                lines[-1][:100] if result.returncode == 1 and lines else f"the reader failed, exit {result.returncode}"
+            )
+            raise ClipFormatError(f"{path}: not a readable C3D file ({reason})")
+        with open(out, "rb") as f, np.load(f) as data:
+            raw = {key: data[key] for key in data.files}
+    return {
+        "points": raw["points"],
+        "residuals": raw["residuals"],
+        "labels": json.loads(str(raw["labels"])),
+        "rate": float(raw["rate"]),
+        "declared": int(raw["declared"]),
+        "units": str(raw["units"]),
+        "y_screen": str(raw["y_screen"]),
+    }
 
 
 def _strip_prefix(labels: list[str], wanted: set[str]) -> list[str]:
@@ -73,12 +113,11 @@ def _strip_prefix(labels: list[str], wanted: set[str]) -> list[str]:
     return labels
 
 
-def _screen_hint(parameters: Mapping) -> str | None:
+def _screen_hint(y_screen: str) -> str | None:
     """POINT:Y_SCREEN as a signed axis, if it is one: the axis a viewer shows
     upward, which usually, not always, is the data's up axis."""
-    screen = parameters["POINT"].get("Y_SCREEN", {}).get("value", [])
     try:
-        return signed_axis(screen[0]) if len(screen) else None
+        return signed_axis(y_screen) if y_screen else None
     except ValueError:
         return None
 
@@ -93,7 +132,7 @@ def _tallest_extent(markers: Mapping[str, np.ndarray]) -> str | None:
     return "+" + "xyz"[order[0]] if extent[order[0]] > 1.5 * extent[order[1]] else None
 
 
-def _choose_up(up, markers: Mapping[str, np.ndarray], marker_set, parameters: Mapping, where: str) -> tuple[str, str]:
+def _choose_up(up, markers: Mapping[str, np.ndarray], marker_set, y_screen: str, where: str) -> tuple[str, str]:
     """(up axis, how it was found). `up` when given. Otherwise the data
     decides: the axis along which the head stands above the feet (landmarks
     of the marker set), else the clearly tallest extent of the markers;
@@ -104,7 +143,7 @@ def _choose_up(up, markers: Mapping[str, np.ndarray], marker_set, parameters: Ma
             return signed_axis(up), "given"
         except ValueError as error:
             raise ClipFormatError(f"{where}: up: {error}") from None
-    hint = _screen_hint(parameters)
+    hint = _screen_hint(y_screen)
     found, how = None, ""
     if marker_set is not None:
         try:
@@ -171,24 +210,14 @@ def read_c3d(
     `info["filled"]` holds a (T,) mask of the filled samples per marker.
     A file shorter than its header says is refused as truncated.
     """
-    import ezc3d
-
     path = Path(path)
     promised = _check_header(path)
-    try:
-        c3d = ezc3d.c3d(str(path))
-        parameters = c3d["parameters"]
-        points = np.asarray(c3d["data"]["points"], dtype=float)[:3].transpose(1, 2, 0)  # (n, T, 3)
-        residuals = np.asarray(c3d["data"]["meta_points"]["residuals"], dtype=float)[0]
-        labels = _labels(parameters)
-        rate = float(np.ravel(parameters["POINT"]["RATE"]["value"])[0])
-        declared = int(np.ravel(parameters["POINT"]["FRAMES"]["value"])[0]) if "FRAMES" in parameters["POINT"] else 0
-    except (OSError, RuntimeError, ValueError, KeyError, IndexError, TypeError) as error:
-        reason = str(error).splitlines()[0][:80] if str(error) else type(error).__name__
-        raise ClipFormatError(f"{path}: not a readable C3D file ({reason})") from None
+    raw = _read_in_child(path)
+    points, residuals, labels, rate = raw["points"], raw["residuals"], raw["labels"], raw["rate"]
     frames = points.shape[1]
     if frames == 0:
         raise ClipFormatError(f"{path}: the C3D file has no frames")
+    declared = raw["declared"]
     expected = declared if declared > promised else promised  # POINT:FRAMES holds counts beyond 65535
     if frames < expected:
         raise ClipFormatError(f"{path}: truncated: the header promises {expected} frames, the file holds {frames}")
@@ -196,8 +225,7 @@ def read_c3d(
         raise ClipFormatError(
             f"{path}: POINT:RATE {rate:g} Hz is not a plausible frame rate ({RATE_RANGE[0]:g}-{RATE_RANGE[1]:g} Hz)"
         )
-    units_value = parameters["POINT"].get("UNITS", {}).get("value", [])
-    units = str(units_value[0]).strip().lower() if len(units_value) else ""
+    units = raw["units"]
     scale = UNIT_SCALES.get(units, 1e-3)
     missing = ~np.all(np.isfinite(points), axis=-1) | (residuals < 0) | np.all(points == 0.0, axis=-1)
     points = np.where(missing[..., None], 0.0, points) * scale
@@ -220,7 +248,7 @@ def read_c3d(
         markers[label] = fill_gaps(points[i], missing[i], fill)
     if not markers:
         raise ClipFormatError(f"{path}: the C3D file has no usable markers")
-    up_axis, up_source = _choose_up(up, markers, chosen, parameters, str(path))
+    up_axis, up_source = _choose_up(up, markers, chosen, raw["y_screen"], str(path))
     rotation = up_rotation(up_axis)
     markers = {label: xyz @ rotation.T for label, xyz in markers.items()}
     info = {

@@ -211,7 +211,8 @@ class MotionClip:
         """Raise `ClipFormatError` on wrong shapes, NaNs or zero frames."""
         if not np.isfinite(self.fps) or self.fps <= 0:
             raise ClipFormatError(f"{where}: fps must be a positive number")
-        t = np.asarray(self.root_position).shape[0] if np.ndim(self.root_position) == 2 else -1
+        counts = [np.shape(getattr(self, name))[0] for name in _ARRAYS if np.ndim(getattr(self, name)) >= 1]
+        t = max(set(counts), key=counts.count) if counts else 0  # the frame count most arrays agree on
         if t <= 0:
             raise ClipFormatError(f"{where}: has zero frames")
         n, k = len(self.joint_names), len(self.key_body_names)
@@ -305,7 +306,7 @@ class MotionClip:
         if not path.is_file():
             raise ClipFormatError(f"{path}: no such file")
         try:
-            with np.load(path, allow_pickle=False) as data:
+            with open(path, "rb") as f, np.load(f, allow_pickle=False) as data:  # the file closed on every path
                 arrays = {key: data[key] for key in data.files}
         except (OSError, ValueError, zipfile.BadZipFile, EOFError) as error:
             raise ClipFormatError(f"{path}: not a readable .npz clip ({type(error).__name__})") from None

@@ -121,7 +121,14 @@ def human_clip(
     if not np.all(np.isfinite(positions)):
         raise ClipFormatError(f"{source}: landmark positions contain NaN or infinite values")
     root_position = positions[:, names.index("pelvis" if "pelvis" in names else "chest")]
-    quaternion = matrix_to_quat(pelvis_frames(landmarks))
+    with np.errstate(all="ignore"):
+        frames = pelvis_frames(landmarks)
+    broken = ~np.all(np.isfinite(frames), axis=(1, 2))
+    if broken.any():
+        raise ClipFormatError(
+            f"{source}: frame {int(np.argmax(broken))}: the root's frame is undefined (coinciding landmarks)"
+        )
+    quaternion = matrix_to_quat(frames)
     return MotionClip.from_positions(
         HUMAN,
         source,

@@ -586,9 +586,17 @@ class _Resolver:
                 raise ClipFormatError(f"{self.source}: landmark {name} depends on itself")
             self.active.add(name)
             try:
-                self.points[name] = self._landmark(name, self.ms["landmarks"][name])
+                with np.errstate(all="ignore"):
+                    value = self._landmark(name, self.ms["landmarks"][name])
+            except np.linalg.LinAlgError:
+                value = np.full(3, np.nan)
             finally:
                 self.active.discard(name)
+            if not np.all(np.isfinite(value)):
+                raise ClipFormatError(
+                    f"{self.source}: landmark {name} cannot be computed from its markers (they coincide or are missing)"
+                )
+            self.points[name] = value
             return self.points[name]
         if name in self.markers:
             return self.markers[name]
@@ -600,9 +608,9 @@ class _Resolver:
             spec = self.ms["frames"].get(name)
             if spec is None:
                 raise ClipFormatError(f"{self.source}: the marker set has no frame {name!r}")
-            self.frames[name] = _frame_from_axes(
-                *[(spec[k][0], self.point(spec[k][2]) - self.point(spec[k][1])) for k in ("primary", "secondary")]
-            )
+            axes = [(spec[k][0], self.point(spec[k][2]) - self.point(spec[k][1])) for k in ("primary", "secondary")]
+            with np.errstate(all="ignore"):  # coinciding markers give NaN, refused where a landmark uses it
+                self.frames[name] = _frame_from_axes(*axes)
         return self.frames[name]
 
     def _landmark(self, name: str, spec) -> np.ndarray:

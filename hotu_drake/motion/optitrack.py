@@ -37,6 +37,7 @@ LENGTH_UNITS = {
 RIGID_BODY = "rigid body"
 RATE_RANGE = (1.0, 10000.0)  # Hz
 UNIT_TOLERANCE = 0.01  # how far a recorded quaternion's norm may be from 1
+MAX_COORDINATE = 1e5  # in the file's length units: 100 m in millimetres, 100 km in metres
 _ROTATION = ("X", "Y", "Z", "W")
 _POSITION = ("X", "Y", "Z")
 
@@ -194,10 +195,18 @@ def _numbers(data: list[list[str]], columns: dict[str, list[int]], path: Path) -
 
 
 def _check_rotations(values: np.ndarray, names: list[str], data: list[list[str]], path: Path) -> None:
-    """Every recorded rotation (a frame with all seven cells) is a unit quaternion."""
+    """Every recorded pose (a frame with all seven cells) has a unit quaternion
+    and a position within `MAX_COORDINATE` of the origin."""
     seen = np.all(np.isfinite(values), axis=-1)  # (T, m)
-    norms = np.linalg.norm(values[..., 3:], axis=-1)
-    bad = seen & (np.abs(norms - 1.0) > UNIT_TOLERANCE)
+    far = seen & np.any(np.abs(values[..., :3]) > MAX_COORDINATE, axis=-1)
+    if far.any():
+        t, k = np.argwhere(far)[0]
+        raise ClipFormatError(
+            f"{path}: frame {_cell(data[t], 0)}: body {names[k]}: a position beyond {MAX_COORDINATE:g}"
+        )
+    with np.errstate(all="ignore"):  # huge numbers overflow to inf: not unit either
+        norms = np.linalg.norm(values[..., 3:], axis=-1)
+    bad = seen & ~(np.abs(norms - 1.0) <= UNIT_TOLERANCE)
     if bad.any():
         t, k = np.argwhere(bad)[0]
         raise ClipFormatError(
@@ -211,11 +220,11 @@ def _frame_rate(fps: float | None, meta: dict[str, str], data: list[list[str]], 
     if fps is not None:
         return check_number(fps, "fps", path, low=RATE_RANGE[0], high=RATE_RANGE[1], unit="Hz")
     for key in ("export frame rate", "capture frame rate"):
-        try:
-            rate = float(meta.get(key, ""))
-        except ValueError:
-            continue
-        if np.isfinite(rate) and rate > 0:
+        if key in meta:  # a stated rate must be a plausible one
+            try:
+                rate = float(meta[key])
+            except ValueError:
+                raise ClipFormatError(f"{path}: {key.title()}: {meta[key][:20]!r} is not a number") from None
             return check_number(rate, key.title(), path, low=RATE_RANGE[0], high=RATE_RANGE[1], unit="Hz")
     try:
         times = np.array([float(_cell(cells, 1)) for cells in data])

@@ -17,7 +17,7 @@ from hotu_drake.retarget import frames
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
 from hotu_drake.retarget.retargeter import foot_contacts_of
 from hotu_drake.retarget.tree import Tree
-from hotu_drake.rotations import heading_rotation, quat_to_matrix, rotation_log
+from hotu_drake.rotations import finite_difference, heading_rotation, quat_to_matrix, rotation_log
 
 # The segment that shows each part's posture (torso and neck: a body frame).
 PART_FRAMES = {"torso": frames.chest_frame, "neck": frames.head_frame}
@@ -116,7 +116,7 @@ def report(source: MotionClip, result: MotionClip, emb: embodiments.Embodiment, 
         speeds = []
         for side in ("left", "right"):
             ankle = dst[f"{side}_ankle"]
-            speed = np.linalg.norm(np.gradient(ankle[:, :2], 1.0 / result.fps, axis=0), axis=1)
+            speed = np.linalg.norm(finite_difference(ankle[:, :2], result.fps), axis=1)
             speeds.append(speed[contacts[side]])
         planted = np.concatenate(speeds)
         out["foot_skate_m_per_s"] = round(float(planted.mean()), 4) if planted.size else 0.0

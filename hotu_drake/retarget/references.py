@@ -74,6 +74,10 @@ def reference_clips(embodiment: Embodiment, motions: Iterable[str] | str | None 
     """The clips for `motions` (default: the whole generated library)."""
     if isinstance(motions, str | Path):
         motions = [str(motions)]
+    elif motions is not None and (
+        not isinstance(motions, list | tuple) or not all(isinstance(m, str | Path) for m in motions)
+    ):
+        raise UserError(f"{motions!r}: give motion names or .npz clip paths", field="motions")
     clips = [reference_clip(motion, embodiment) for motion in (MOTIONS if motions is None else motions)]
     if not clips:
         raise UserError("motions: give at least one motion")
