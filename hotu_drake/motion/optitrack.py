@@ -228,7 +228,7 @@ def _frame_rate(fps: float | None, meta: dict[str, str], data: list[list[str]], 
             return check_number(rate, key.title(), path, low=RATE_RANGE[0], high=RATE_RANGE[1], unit="Hz")
     try:
         times = np.array([float(_cell(cells, 1)) for cells in data])
-        step = float(np.median(np.diff(times)))
+        step = float(np.median(np.diff(times))) if len(times) > 1 else np.nan
     except ValueError:
         step = np.nan
     if len(data) > 1 and np.isfinite(step) and step > 0:
@@ -240,8 +240,9 @@ def _frame_rate(fps: float | None, meta: dict[str, str], data: list[list[str]], 
 
 def _fill(body: np.ndarray) -> np.ndarray | None:
     """Interpolate the missing frames of one body's (T, 7) px py pz qx qy qz qw; None if never seen."""
-    norms = np.linalg.norm(body[:, 3:], axis=1)
     valid = np.all(np.isfinite(body), axis=1)
+    norms = np.ones(len(body))
+    norms[valid] = np.linalg.norm(body[valid, 3:], axis=1)
     if not valid.any():
         return None
     body = body.copy()
