@@ -20,6 +20,7 @@ from pydrake.multibody.plant import MultibodyPlant
 from hotu_drake.embodiment.formats.common import fmt, vec
 from hotu_drake.embodiment.formats.sdf import geometry_sdf
 from hotu_drake.embodiment.spec import Geometry, box, cylinder
+from hotu_drake.errors import InputError
 from hotu_drake.resources import models_dir
 
 
@@ -183,7 +184,7 @@ class SceneObject:
 def add_object(plant: MultibodyPlant, name: str, instance_name: str | None = None, weld: RigidTransform | None = None):
     """Add a task object to a plant (welded at `weld` if given, else free); returns its model instance."""
     if name not in OBJECTS:
-        raise ValueError(f"unknown object {name!r}; choose from {', '.join(OBJECTS)}")
+        raise InputError(f"unknown object {name!r}; choose from {', '.join(OBJECTS)}", field="kind")
     parser = Parser(plant, instance_name) if instance_name else Parser(plant)
     (model,) = parser.AddModels(str(models_dir() / "objects" / f"{name}.sdf"))
     if weld is not None:

@@ -90,7 +90,7 @@ def test_unwritable_output_is_one_line():
 
 @pytest.mark.parametrize(
     "args,message",
-    [(["--seconds", "nan"], "finite number"), (["--time-step", "10"], "at most 0.05"), (["--robot", "atlas"], "atlas")],
+    [(["--seconds", "nan"], "finite number"), (["--time-step", "10"], "0.05] s"), (["--robot", "atlas"], "atlas")],
 )
 def test_bench_rejects_bad_input(args, message):
     result = subprocess.run(

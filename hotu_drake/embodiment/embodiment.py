@@ -14,6 +14,7 @@ from hotu_drake.embodiment.formats.urdf import to_urdf
 from hotu_drake.embodiment.kinematics import link_poses, lowest_collision_point
 from hotu_drake.embodiment.robots import bruce, curi, h1, naviai, udh, walker
 from hotu_drake.embodiment.spec import FINGER_PART, EmbodimentSpec
+from hotu_drake.errors import InputError
 
 EMBODIMENT_NAMES: tuple[str, ...] = ("udh", "naviai", "h1", "bruce", "walker", "curi")
 HANDS_VARIANTS: tuple[str, ...] = ("full", "none")
@@ -37,11 +38,11 @@ EXPORT_SUFFIX = {"sdf": ".sdf", "urdf": ".urdf", "mjcf": ".xml"}
 def build_spec(name: str, hands: str = "full", **options) -> EmbodimentSpec:
     """Build the spec of embodiment `name` (`height=` and `mass=` for the UDH)."""
     if name not in _BUILDERS:
-        raise ValueError(f"unknown embodiment {name!r}; choose from {', '.join(EMBODIMENT_NAMES)}")
+        raise InputError(f"unknown embodiment {name!r}; choose from {', '.join(EMBODIMENT_NAMES)}", field="embodiment")
     if hands not in HANDS_VARIANTS:
-        raise ValueError(f"hands must be one of {HANDS_VARIANTS}, not {hands!r}")
+        raise InputError(f"hands must be one of {HANDS_VARIANTS}, not {hands!r}", field="hands")
     if options and name != "udh":
-        raise ValueError(f"{name} takes no options (only the UDH takes height and mass)")
+        raise InputError(f"{name} takes no options (only the UDH takes height and mass)", field="options")
     return _BUILDERS[name](hands, **options)
 
 

@@ -460,10 +460,12 @@ def read_bvh(
     points = {name: _target_positions(bvh, rotations, positions, t) for name, t in landmarks.items()}
     up = _choose_up(up, points, where)
     if units is None:
+        height = skeleton_height(bvh, landmarks)
         try:
-            units = detect_units(skeleton_height(bvh, landmarks))
+            units = detect_units(height)
         except ValueError:
             raise ClipFormatError(f"{where}: cannot detect units (the skeleton has no size); pass units") from None
+        log.info("%s: units %s (a skeleton %.4g file units tall)", where, units, height)
     scale = unit_scale(units)
     rotation = up_rotation(up)
     metric = {name: scale * p @ rotation.T for name, p in points.items()}

@@ -12,6 +12,7 @@ from hotu_drake import embodiment
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.kinematics import batch_link_poses
 from hotu_drake.embodiment.spec import SIDES
+from hotu_drake.errors import InputError, check_number
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import human_clip
 from hotu_drake.motion.library.gestures import boxing, finger_motions, handshake, kungfu, slap, thumbs_up, wave
@@ -134,13 +135,11 @@ def generate_udh(
     seed gives identical arrays); `duration` (s) stretches the motion.
     """
     if name not in _PLANNERS:
-        raise ValueError(f"unknown motion {name!r}; choose from {', '.join(MOTIONS)}")
-    if fps <= 0:
-        raise ValueError("fps must be positive")
+        raise InputError(f"unknown motion {name!r}; choose from {', '.join(MOTIONS)}", field="name")
+    fps = check_number(fps, "fps", name, low=1.0, high=1000.0, unit="Hz")
     nominal = DURATIONS[name]
-    duration = nominal if duration is None else float(duration)
-    if not 0.5 * nominal <= duration <= 3.0 * nominal:
-        raise ValueError(f"{name}: duration must be within {0.5 * nominal:.1f}-{3 * nominal:.1f} s")
+    duration = nominal if duration is None else duration
+    duration = check_number(duration, "duration", name, low=0.5 * nominal, high=3.0 * nominal, unit="s")
     udh = _default_udh() if udh is None else udh
     if udh.name != "udh":
         raise ValueError("the library is generated on the UDH")
