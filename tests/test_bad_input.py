@@ -9,33 +9,15 @@ raise `InputError` naming the file or field.
 import contextlib
 import importlib
 import io
-import signal
 
 import pytest
 
 from hotu_drake.cli import run_cli
 from hotu_drake.errors import InputError
 from tests.bad_inputs import CASES
+from tests.limits import time_limit
 
 TIME_LIMIT = 60  # s per case: a hang fails the case instead of the suite
-
-
-class _Hang(Exception):
-    pass
-
-
-@contextlib.contextmanager
-def _time_limit(seconds: int):
-    def alarm(signum, frame):
-        raise _Hang(f"no answer within {seconds} s")
-
-    previous = signal.signal(signal.SIGALRM, alarm)
-    signal.alarm(seconds)
-    try:
-        yield
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, previous)
 
 
 def _files(folder) -> set:
@@ -54,14 +36,14 @@ def test_bad_input_is_refused_in_one_line(case, tmp_path):
     made = case.make(tmp_path)
     before = _files(tmp_path)
     if case.kind == "api":
-        with _time_limit(TIME_LIMIT), pytest.raises(InputError) as refused:
+        with time_limit(TIME_LIMIT), pytest.raises(InputError) as refused:
             made()
         message = str(refused.value)
         assert "\n" not in message.strip(), message
     else:
         module, argv = made
         stderr, stdout = io.StringIO(), io.StringIO()
-        with _time_limit(TIME_LIMIT), contextlib.redirect_stderr(stderr), contextlib.redirect_stdout(stdout):
+        with time_limit(TIME_LIMIT), contextlib.redirect_stderr(stderr), contextlib.redirect_stdout(stdout):
             code = run_cli(_main(module), argv)
         lines = stderr.getvalue().splitlines()
         errors = [line for line in lines if line.startswith("error:")]

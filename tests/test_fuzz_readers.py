@@ -9,7 +9,6 @@ so a file that crashes ezc3d is one more refused input here.
 import contextlib
 import io
 import os
-import signal
 import tempfile
 from pathlib import Path
 
@@ -18,6 +17,7 @@ from hypothesis import strategies as st
 
 from hotu_drake.errors import InputError
 from tests import bad_inputs
+from tests.limits import time_limit
 
 EXAMPLES = 200
 TIME_LIMIT = 20  # s per example
@@ -95,27 +95,9 @@ BYTE_EDITS = st.lists(
 )
 
 
-class _Hang(Exception):
-    pass
-
-
-@contextlib.contextmanager
-def _time_limit(seconds: int):
-    def alarm(signum, frame):
-        raise _Hang(f"no answer within {seconds} s")
-
-    previous = signal.signal(signal.SIGALRM, alarm)
-    signal.alarm(seconds)
-    try:
-        yield
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, previous)
-
-
 def _valid_or_refused(read) -> None:
     """`read()` returns, or raises InputError with a one-line message."""
-    with _time_limit(TIME_LIMIT), contextlib.redirect_stderr(io.StringIO()):
+    with time_limit(TIME_LIMIT), contextlib.redirect_stderr(io.StringIO()):
         try:
             read()
         except InputError as error:

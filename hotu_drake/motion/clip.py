@@ -40,23 +40,6 @@ from hotu_drake.errors import InputError
 from hotu_drake.io import atomic_output
 
 FORMAT_VERSION = 1
-_REQUIRED = (
-    "format_version",
-    "embodiment",
-    "source",
-    "fps",
-    "joint_names",
-    "joint_positions",
-    "joint_velocities",
-    "root_position",
-    "root_quaternion",
-    "root_linear_velocity",
-    "root_angular_velocity",
-    "key_body_names",
-    "key_body_positions",
-)
-
-
 _ARRAYS = (
     "joint_positions",
     "joint_velocities",
@@ -66,6 +49,7 @@ _ARRAYS = (
     "root_angular_velocity",
     "key_body_positions",
 )
+_REQUIRED = ("format_version", "embodiment", "source", "fps", "joint_names", "key_body_names", *_ARRAYS)
 
 
 class ClipFormatError(UserError):
