@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 from pydrake.common.eigen_geometry import Quaternion
-from pydrake.geometry import Box, CollisionFilterDeclaration, GeometrySet, SceneGraph
+from pydrake.geometry import Box, Capsule, CollisionFilterDeclaration, Cylinder, GeometrySet, SceneGraph, Sphere
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.math import SpatialVelocity
 from pydrake.multibody.plant import CoulombFriction, ExternallyAppliedSpatialForceMultiplexer, MultibodyPlant
@@ -140,13 +140,36 @@ def set_robot_state(
     plant.SetFreeBodySpatialVelocity(plant_context, root, SpatialVelocity(omega, linear))
 
 
+def _reach(inspector, geometries) -> float:
+    """How far any point of these collision geometries is from their body's origin."""
+    far = 0.0
+    for geometry in geometries:
+        shape = inspector.GetShape(geometry)
+        offset = float(np.linalg.norm(inspector.GetPoseInFrame(geometry).translation()))
+        if isinstance(shape, Sphere):
+            extent = shape.radius()
+        elif isinstance(shape, Capsule):
+            extent = shape.radius() + 0.5 * shape.length()
+        elif isinstance(shape, Cylinder):
+            extent = float(np.hypot(shape.radius(), 0.5 * shape.length()))
+        elif isinstance(shape, Box):
+            extent = 0.5 * float(np.linalg.norm(shape.size()))
+        else:  # a mesh or another shape: always ask the query
+            return np.inf
+        far = max(far, offset + extent)
+    return far
+
+
 class FallCheck:
     """The fall rule: a floating-base robot has fallen when its pelvis is
     below `height_fraction` of its standing height, or a body other than a
     foot touches the floor. The touch is checked on geometry (a floor
     geometry penetrating one of those bodies', the condition for point
-    contact), so it costs a collision query, not a contact solve. A robot
-    on a fixed or planar base never falls."""
+    contact), so it costs a collision query, not a contact solve; and the
+    query runs only when a body is within reach of the floor (its origin
+    lower than the furthest point of its collision shapes), so a robot on
+    its feet costs a look at its body poses. A robot on a fixed or planar
+    base never falls."""
 
     def __init__(
         self,
@@ -163,12 +186,16 @@ class FallCheck:
         roles = [r for r in FOOT_ROLES if r in embodiment.key_bodies]
         feet = {plant.GetBodyByName(embodiment.key_bodies[r], model).index() for r in roles}
         self._floor = set(plant.GetCollisionGeometriesForBody(plant.world_body()))
-        self._body = {
-            geometry
+        self._geometries = {
+            int(index): plant.GetCollisionGeometriesForBody(plant.get_body(index))
             for index in plant.GetBodyIndices(model)
-            if index not in feet
-            for geometry in plant.GetCollisionGeometriesForBody(plant.get_body(index))
+            if index not in feet and plant.GetCollisionGeometriesForBody(plant.get_body(index))
         }
+        self._body = {g for geometries in self._geometries.values() for g in geometries}
+        self._pairs = {(f, g) for f in self._floor for g in self._body} | {
+            (g, f) for f in self._floor for g in self._body
+        }
+        self._reach: list[tuple[int, float]] | None = None  # body index, reach (m); from the scene graph on first use
 
     def pelvis_height(self, plant_context) -> float:
         return float(self._plant.EvalBodyPoseInWorld(plant_context, self._pelvis).translation()[2])
@@ -176,12 +203,13 @@ class FallCheck:
     def touches_floor(self, plant_context) -> bool:
         """Whether a body other than a foot touches the floor."""
         query = self._plant.get_geometry_query_input_port().Eval(plant_context)
-        floor, body = self._floor, self._body
-        for pair in query.ComputePointPairPenetration():
-            a, b = pair.id_A, pair.id_B
-            if (a in floor and b in body) or (b in floor and a in body):
-                return True
-        return False
+        if self._reach is None:
+            self._reach = [(index, _reach(query.inspector(), ids)) for index, ids in self._geometries.items()]
+        poses = self._plant.get_body_poses_output_port().Eval(plant_context)
+        if all(poses[index].translation()[2] > reach for index, reach in self._reach):
+            return False  # (the floor's top is at z = 0)
+        pairs = self._pairs
+        return any((pair.id_A, pair.id_B) in pairs for pair in query.ComputePointPairPenetration())
 
     def __call__(self, plant_context) -> bool:
         if not self.can_fall:

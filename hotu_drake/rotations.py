@@ -6,6 +6,8 @@ The one home of these helpers for every stage (embodiments, motions,
 retargeting, systems); it imports nothing but numpy.
 """
 
+import math
+
 import numpy as np
 
 
@@ -49,7 +51,13 @@ def heading_rotation(rotation: np.ndarray) -> np.ndarray:
     """Yaw-only rotations (..., 3, 3) sharing the heading of `rotation`'s x axis
     (the heading frame of AMP observations and of root trajectories). A
     rotation whose x axis points straight up or down gets the identity."""
-    x = np.array(rotation, dtype=float)[..., :, 0]
+    rotation = np.asarray(rotation, dtype=float)
+    if rotation.shape == (3, 3):  # one rotation: the common case, per control step
+        x0, x1 = rotation[0, 0], rotation[1, 0]
+        n = math.sqrt(x0 * x0 + x1 * x1)
+        c, s = (x0 / n, x1 / n) if n >= 1e-9 else (1.0, 0.0)
+        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    x = np.array(rotation[..., :, 0])
     x[..., 2] = 0.0
     n = np.linalg.norm(x, axis=-1, keepdims=True)
     x = np.where(n < 1e-9, np.array([1.0, 0.0, 0.0]), x / np.maximum(n, 1e-9))

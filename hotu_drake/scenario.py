@@ -117,12 +117,27 @@ class InitialCondition:
     motion: str = ""
 
 
+# Chosen with `python -m hotu_drake.bench fidelity` (BENCHMARKS.md): with SAP's
+# near-rigid threshold at 0.1 (Drake's default of 1.0 softens contact: every
+# legged robot falls standing at 1/90 s and coarser), a 1/60 s step keeps the
+# pelvis, head, hands and feet of every legged robot within 7.3 mm of a
+# 1/1440 s reference while standing, squatting and being pushed, with no
+# fall, at 3-4 times the speed of 1/180 s.
+DEFAULT_TIME_STEP = 1.0 / 60.0
+DEFAULT_NEAR_RIGID_THRESHOLD = 0.1
+
+
 def default_plant_config() -> MultibodyPlantConfig:
-    """SAP at 5 ms with point contact; output ports computed when read
-    (Drake's sampled output ports copy the contact results and poses into
-    the state at every step, and most steps read neither: 10-15% faster)."""
+    """SAP at `DEFAULT_TIME_STEP` with point contact and the near-rigid
+    threshold at `DEFAULT_NEAR_RIGID_THRESHOLD`; output ports computed when
+    read (Drake's sampled output ports copy the contact results and poses
+    into the state at every step, and most steps read neither: 10-15% faster)."""
     return MultibodyPlantConfig(
-        time_step=0.005, discrete_contact_approximation="sap", contact_model="point", use_sampled_output_ports=False
+        time_step=DEFAULT_TIME_STEP,
+        discrete_contact_approximation="sap",
+        contact_model="point",
+        sap_near_rigid_threshold=DEFAULT_NEAR_RIGID_THRESHOLD,
+        use_sampled_output_ports=False,
     )
 
 

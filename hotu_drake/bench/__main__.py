@@ -5,7 +5,9 @@ python -m hotu_drake.bench standing [--robot NAME|all] [--hands full|none|both]
 python -m hotu_drake.bench retarget [--input FILE] [--hands full|none|both] [--seconds S]
 python -m hotu_drake.bench diagram  [--robot NAME|all] [--hands full|none|both] [--seconds S] [--markdown]
 python -m hotu_drake.bench env      [--robot NAME] [--hands full|none] [--envs N] [--seconds S]
-                                    [--motions M ...] [--peer mujoco] [--json]
+                                    [--motions M ...] [--backend local|ray] [--fidelity] [--peer mujoco] [--json]
+python -m hotu_drake.bench fidelity [--robot NAME|all] [--rates HZ ...] [--thresholds T ...]
+                                    [--reference-rate HZ] [--markdown]
 """
 
 import json
@@ -15,7 +17,14 @@ from hotu_drake import embodiment
 from hotu_drake.bench.standing import machine, pin_to_one_core, standing_realtime_factor
 from hotu_drake.cli import ArgumentParser, UserError, positive_float, run_cli
 from hotu_drake.errors import check_number
-from hotu_drake.scenario import LIMITS, MAX_PLANT_STEPS
+from hotu_drake.scenario import DEFAULT_TIME_STEP, LIMITS, MAX_PLANT_STEPS, default_plant_config
+
+BASELINE_PLANT = (1.0 / 180.0, 1.0)  # hotu_drake 0.2's environments: 1/180 s, Drake's default near-rigid threshold
+
+
+def bench_env_settings() -> dict:
+    config = default_plant_config()
+    return {"time_step": config.time_step, "near_rigid_threshold": config.sap_near_rigid_threshold}
 
 
 def _retarget(args) -> int:
@@ -62,7 +71,7 @@ def _diagram(args, names) -> int:
     report = {
         "benchmark": "diagram",
         "machine": machine(),
-        "settings": {"time_step": 0.005, "control_rate": 30.0, "seconds": args.seconds, "cores": 1},
+        "settings": {**bench_env_settings(), "control_rate": 30.0, "seconds": args.seconds, "cores": 1},
         "results": results,
     }
     print(json.dumps(report, indent=2))
@@ -83,17 +92,33 @@ def _env(args) -> int:
     reference_clips(emb, args.motions)  # retarget (or load from the cache) once, before timing
     report: dict = {"benchmark": "env", "machine": machine(), "robot": args.robot, "hands": args.hands}
     report["settings"] = {
-        "time_step": 1.0 / 180.0,
+        **bench_env.plant_settings(None),
         "control_rate": 30.0,
         "seconds": args.seconds,
         "motions": args.motions,
+        "backend": args.backend,
     }
-    report["vectorised"] = bench_env.vectorised(args.robot, args.hands, args.seconds, args.motions, args.envs)
+    counts = sorted({1, args.envs})
+    runs = [
+        bench_env.vectorised(args.robot, args.hands, args.seconds, args.motions, n, backend=args.backend)
+        for n in counts
+    ]
+    report["vectorised"] = runs[-1]
+    if len(runs) > 1:
+        report["workers_speedup"] = round(runs[-1]["env_steps_per_second"] / runs[0]["env_steps_per_second"], 2)
+        report["one_worker"] = runs[0]
     pin_to_one_core()
     report["in_process"] = bench_env.in_process(args.robot, args.hands, args.seconds, args.motions)
+    baseline = bench_env.in_process(args.robot, args.hands, args.seconds, args.motions, plant=BASELINE_PLANT)
+    report["baseline_0_2"] = baseline
+    report["speedup_over_0_2"] = round(
+        report["in_process"]["env_steps_per_second"] / baseline["env_steps_per_second"], 2
+    )
     report["env_steps_per_second"] = report["vectorised"]["env_steps_per_second"]
     report["sim_seconds_per_wall_second"] = report["vectorised"]["sim_seconds_per_wall_second"]
     report["ms_per_step"] = report["in_process"]["ms_per_step"]
+    if args.fidelity or args.peer:
+        report["in_process"]["trajectory_error_mm"] = bench_env.drake_fidelity(args.robot, args.hands)
     if args.peer == "mujoco":
         try:
             peer = bench_env.mujoco_peer(args.robot, args.hands, args.seconds)
@@ -107,9 +132,43 @@ def _env(args) -> int:
     if args.json:
         print(json.dumps(report, indent=2))
     else:
-        for key in ("env_steps_per_second", "sim_seconds_per_wall_second", "ms_per_step", "drake_to_mujoco_ratio"):
+        keys = (
+            "env_steps_per_second",
+            "sim_seconds_per_wall_second",
+            "ms_per_step",
+            "speedup_over_0_2",
+            "workers_speedup",
+        )
+        for key in (*keys, "drake_to_mujoco_ratio"):
             if key in report:
                 print(f"{key:28s} {report[key]}")
+    return 0
+
+
+def _fidelity(args) -> int:
+    from hotu_drake.bench import fidelity
+
+    robots = fidelity.legged_robots() if args.robot == "all" else (args.robot,)
+    if any(r not in fidelity.legged_robots() for r in robots):
+        raise UserError(f"--robot: {args.robot!r} is not a legged robot ({', '.join(fidelity.legged_robots())}) or all")
+    for rate in [*args.rates, args.reference_rate]:
+        check_number(1.0 / rate, "--rates", low=LIMITS["time_step"]["low"], high=LIMITS["time_step"]["high"], unit="s")
+    for threshold in args.thresholds:
+        check_number(threshold, "--thresholds", **LIMITS["sap_near_rigid_threshold"])
+    settings = [fidelity.Setting(1.0 / rate, t) for t in args.thresholds for rate in args.rates]
+    reference = fidelity.Setting(1.0 / args.reference_rate, min(args.thresholds))
+    pin_to_one_core()
+    rows = fidelity.fidelity(robots, settings, reference, report=lambda row: print(json.dumps(row), file=sys.stderr))
+    report = {
+        "benchmark": "fidelity",
+        "machine": machine(),
+        "reference": {"time_step": reference.time_step, "near_rigid_threshold": reference.near_rigid_threshold},
+        "error_bound_mm": fidelity.ERROR_BOUND_MM,
+        "results": rows,
+    }
+    print(json.dumps(report, indent=2))
+    if args.markdown:
+        print("\n".join(fidelity.summary(rows)), file=sys.stderr)
     return 0
 
 
@@ -120,7 +179,9 @@ def main(argv: list[str] | None = None) -> int:
     standing.add_argument("--robot", default="all", help="an embodiment name or 'all'")
     standing.add_argument("--hands", choices=["full", "none", "both"], default="both")
     standing.add_argument("--seconds", type=positive_float, default=5.0, help="simulated seconds per run")
-    standing.add_argument("--time-step", type=positive_float, default=0.005, help="plant step (s), at most 0.05")
+    standing.add_argument(
+        "--time-step", type=positive_float, default=DEFAULT_TIME_STEP, help="plant step (s, default 1/60), at most 0.05"
+    )
     standing.add_argument("--no-self-collision", action="store_true")
     standing.add_argument("--json", action="store_true", help="accepted for symmetry; output is always JSON")
     retarget = sub.add_parser("retarget", help="retargeting frames per second per robot (human -> UDH -> robot)")
@@ -141,8 +202,19 @@ def main(argv: list[str] | None = None) -> int:
     env.add_argument("--seconds", type=positive_float, default=10.0, help="wall-clock seconds per measurement")
     env.add_argument("--motions", nargs="+", default=["walk"], help="reference motions (default: walk)")
     env.add_argument("--peer", choices=["mujoco"], help="also run the embodiment's MJCF under this engine")
+    env.add_argument("--backend", choices=["local", "ray"], default="local", help="worker processes or Ray actors")
+    env.add_argument("--fidelity", action="store_true", help="also measure the trajectory error against 1/1440 s")
     env.add_argument("--json", action="store_true", help="print the full report as JSON")
+    fid = sub.add_parser("fidelity", help="stand, squat, push and drop at candidate steps against a fine reference")
+    fid.add_argument("--robot", default="all", help="a legged robot or 'all'")
+    fid.add_argument("--rates", type=positive_float, nargs="+", default=[180, 90, 60, 30], help="plant rates (Hz)")
+    fid.add_argument("--thresholds", type=float, nargs="+", default=[1.0, 0.1], help="SAP near-rigid thresholds")
+    fid.add_argument("--reference-rate", type=positive_float, default=1440.0, help="the reference's plant rate (Hz)")
+    fid.add_argument("--markdown", action="store_true", help="also print a Markdown table on stderr")
+    fid.add_argument("--json", action="store_true", help="accepted for symmetry; output is always JSON")
     args = parser.parse_args(argv)
+    if args.command == "fidelity":
+        return _fidelity(args)
     if args.command == "env":
         return _env(args)
     if args.command == "retarget":
@@ -174,7 +246,7 @@ def main(argv: list[str] | None = None) -> int:
     report = {
         "benchmark": "standing",
         "machine": machine(),
-        "settings": {"time_step": args.time_step, "self_collision": self_collision, "cores": 1},
+        "settings": {**bench_env_settings(), "time_step": args.time_step, "self_collision": self_collision, "cores": 1},
         "results": results,
     }
     print(json.dumps(report, indent=2))

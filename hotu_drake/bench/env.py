@@ -7,13 +7,19 @@ same motion), the actions are the standing pose's plus Gaussian noise
 
 - in process, one core: steps per second and the per-step split (physics =
   `AdvanceTo`; observation; AMP observation; the rest of `step` is Python
-  overhead);
-- `N` worker processes (`make_vector_env`): steps per second summed over
-  the workers, including the inter-process traffic;
-- with a peer, the same embodiment's MJCF under MuJoCo at the same time
-  step and control rate, on a floor plane: position actuators with the same gains and
-  effort limits, `mj_step` over the control period, then the same kind of
+  overhead), at the default plant and at hotu_drake 0.2's (1/180 s, SAP
+  near-rigid threshold 1.0), in the same run;
+- 1 and `N` worker processes (`make_vector_env`, local or Ray): steps per
+  second summed over the workers, including the inter-process traffic;
+- with a peer, the same embodiment's MJCF under MuJoCo at its own stable
+  step (the largest of `MUJOCO_STEPS` at which it stands the workload for
+  3 s), on a floor plane: position actuators with the same gains and effort
+  limits, `mj_step` over the control period, then the same kind of
   observation read (joint state, root pose and velocity, key bodies).
+
+Each engine's speed comes with its fidelity figure: the RMS distance of
+the pelvis and key bodies, over 3 s of the same workload, between its step
+and a fine one (1/1440 s), so the ratio compares like with like.
 """
 
 import resource
@@ -26,9 +32,13 @@ from hotu_drake import embodiment as embodiments
 from hotu_drake.embodiment.actions import ActionScaling, standing_action
 from hotu_drake.embodiment.spec import FOOT_ROLES, HAND_ROLES
 from hotu_drake.envs import EnvSpec, make_vector_env
+from hotu_drake.scenario import Scenario, default_plant_config
 
 NOISE = 0.01
-KEY_BODY_ROLES = (*HAND_ROLES, *FOOT_ROLES)
+TRACKED = ("pelvis", *HAND_ROLES, *FOOT_ROLES)
+FINE_STEP = 1.0 / 1440.0
+FIDELITY_SECONDS = 3.0
+MUJOCO_STEPS = (1 / 60, 1 / 120, 1 / 240, 1 / 480, 1 / 960)  # candidates for MuJoCo's own stable step
 
 
 def _actions(emb, seed: int):
@@ -45,9 +55,26 @@ def peak_memory_mb() -> dict:
     return {"this_process": round(own, 1), "largest_worker": round(children, 1)}
 
 
-def in_process(robot: str, hands: str, seconds: float, motions: list[str], seed: int = 0) -> dict:
+def _scenario(robot: str, hands: str, plant: tuple[float, float] | None) -> Scenario:
+    """The environment's scenario, at `plant` = (time step, near-rigid threshold) if given."""
+    scenario = Scenario(embodiment=robot, hands=hands)
+    if plant is not None:
+        scenario.plant_config.time_step, scenario.plant_config.sap_near_rigid_threshold = plant
+    return scenario
+
+
+def plant_settings(plant: tuple[float, float] | None) -> dict:
+    config = default_plant_config()
+    step, threshold = plant if plant is not None else (config.time_step, config.sap_near_rigid_threshold)
+    return {"time_step": step, "near_rigid_threshold": threshold}
+
+
+def in_process(
+    robot: str, hands: str, seconds: float, motions: list[str], seed: int = 0, plant: tuple[float, float] | None = None
+) -> dict:
     """One environment in this process: steps per second and the per-step split."""
-    env = gym.make("hotu_drake/Imitation-v0", robot=robot, hands=hands, motions=motions, reference_init_probability=0.0)
+    scenario = _scenario(robot, hands, plant)
+    env = gym.make("hotu_drake/Imitation-v0", scenario=scenario, motions=motions, reference_init_probability=0.0)
     inner = env.unwrapped
     env.reset(seed=seed)
     actions = _actions(inner.embodiment, seed)
@@ -67,6 +94,7 @@ def in_process(robot: str, hands: str, seconds: float, motions: list[str], seed:
     split = inner.timings.per_step_ms()
     env.close()
     return {
+        "plant": plant_settings(plant),
         "env_steps_per_second": round(steps / wall, 1),
         "sim_seconds_per_wall_second": round(steps * inner.control_period / wall, 2),
         "ms_per_step": split,
@@ -75,11 +103,13 @@ def in_process(robot: str, hands: str, seconds: float, motions: list[str], seed:
     }
 
 
-def vectorised(robot: str, hands: str, seconds: float, motions: list[str], num_envs: int, seed: int = 0) -> dict:
-    """`num_envs` worker processes stepping together."""
+def vectorised(
+    robot: str, hands: str, seconds: float, motions: list[str], num_envs: int, seed: int = 0, backend: str = "local"
+) -> dict:
+    """`num_envs` workers (processes, or Ray actors) stepping together."""
     options = {"robot": robot, "hands": hands, "motions": motions, "reference_init_probability": 0.0}
     spec = EnvSpec("hotu_drake/Imitation-v0", options)
-    envs = make_vector_env(spec, num_envs)
+    envs = make_vector_env(spec, num_envs, backend=backend)
     try:
         envs.reset(seed=seed)
         emb = embodiments.load(robot, hands)
@@ -99,59 +129,124 @@ def vectorised(robot: str, hands: str, seconds: float, motions: list[str], num_e
         envs.close()
     return {
         "workers": num_envs,
+        "backend": backend,
         "env_steps_per_second": round(steps / wall, 1),
         "sim_seconds_per_wall_second": round(steps / 30.0 / wall, 2),
     }
 
 
-def mujoco_peer(
-    robot: str, hands: str, seconds: float, time_step: float = 1.0 / 180.0, control_rate: float = 30.0
-) -> dict:
-    """The same loop under MuJoCo (the `mujoco` extra)."""
-    try:
-        import mujoco
-    except ImportError:
-        raise RuntimeError("--peer mujoco needs MuJoCo: pip install 'hotu-drake[mujoco]'") from None
-    from hotu_drake.resources import model_path
+def drake_fidelity(robot: str, hands: str, plant: tuple[float, float] | None = None, seconds: float = 3.0) -> float:
+    """RMS distance (mm) of the pelvis and key bodies between the environment at
+    `plant` and at the fine step, under the benchmark's workload for `seconds`."""
 
-    emb = embodiments.load(robot, hands)
-    spec = mujoco.MjSpec.from_file(str(model_path(robot, hands, "mjcf")))
-    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[20, 20, 0.1])  # the floor, as in Drake
-    model = spec.compile()
-    model.opt.timestep = time_step
-    data = mujoco.MjData(model)
-    joint_address = [model.joint(name).qposadr[0] for name in emb.joint_names]
-    actuator = [model.actuator(name).id for name in emb.joint_names]
-    keys = [model.body(emb.key_bodies[r]).id for r in KEY_BODY_ROLES if r in emb.key_bodies]
-    scaling = ActionScaling.for_embodiment(emb)
-    floating = emb.floating_base
+    def track(setting):
+        env = gym.make("hotu_drake/Imitation-v0", scenario=_scenario(robot, hands, setting), motions=["walk"])
+        inner = env.unwrapped
+        env.reset(seed=0, options={"init": "default"})
+        inner._set_default_state(0.0)  # the same start for both runs
+        inner.sim.simulator.Initialize()
+        plant_, context = inner.sim.plant, inner._plant_context
+        bodies = [plant_.GetBodyByName(inner.embodiment.key_bodies[r], inner.sim.model) for r in TRACKED]
+        actions, out = _actions(inner.embodiment, 0), []
+        for _ in range(int(round(seconds * 30))):
+            env.step(next(actions))
+            out.append([plant_.EvalBodyPoseInWorld(context, b).translation() for b in bodies])
+        env.close()
+        return np.array(out)
 
-    def reset():
-        mujoco.mj_resetData(model, data)
-        if floating:
+    setting = plant if plant is not None else tuple(plant_settings(None).values())
+    fine = (FINE_STEP, setting[1])
+    return round(1000 * float(np.sqrt(np.mean(np.sum((track(setting) - track(fine)) ** 2, axis=-1)))), 2)
+
+
+class _MujocoRobot:
+    """The embodiment's MJCF on a floor plane, driven like the environment."""
+
+    def __init__(self, robot: str, hands: str, time_step: float, control_rate: float = 30.0):
+        try:
+            import mujoco
+        except ImportError:
+            raise RuntimeError("--peer mujoco needs MuJoCo: pip install 'hotu-drake[mujoco]'") from None
+        from hotu_drake.resources import model_path
+
+        self.mujoco, self.emb = mujoco, embodiments.load(robot, hands)
+        spec = mujoco.MjSpec.from_file(str(model_path(robot, hands, "mjcf")))
+        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[20, 20, 0.1])  # the floor, as in Drake
+        self.model = spec.compile()
+        self.model.opt.timestep = time_step
+        self.data = mujoco.MjData(self.model)
+        emb = self.emb
+        self.joints = [self.model.joint(name).qposadr[0] for name in emb.joint_names]
+        self.actuators = [self.model.actuator(name).id for name in emb.joint_names]
+        self.keys = [self.model.body(emb.key_bodies[r]).id for r in TRACKED if r in emb.key_bodies]
+        self.scaling = ActionScaling.for_embodiment(emb)
+        self.time_step, self.period = time_step, 1.0 / control_rate
+        self.reset()
+
+    def reset(self) -> None:
+        mujoco, data, emb = self.mujoco, self.data, self.emb
+        mujoco.mj_resetData(self.model, data)
+        if emb.floating_base:
             data.qpos[:7] = [0.0, 0.0, emb.standing_root_height, 1.0, 0.0, 0.0, 0.0]
-        data.qpos[joint_address] = emb.standing_pose
-        mujoco.mj_forward(model, data)
+        data.qpos[self.joints] = emb.standing_pose
+        mujoco.mj_forward(self.model, data)
+        self.steps = 0
 
-    reset()
-    actions = _actions(emb, 0)
-    period, steps, episodes, episode_start = 1.0 / control_rate, 0, 0, 0
+    def step(self, action) -> np.ndarray:
+        """One control period; the observation read (joint state, root, key bodies)."""
+        data = self.data
+        data.ctrl[self.actuators] = self.scaling.to_targets(action)
+        self.steps += 1
+        substeps = max(1, int(round((self.steps * self.period - data.time) / self.time_step)))
+        self.mujoco.mj_step(self.model, data, nstep=substeps)
+        return np.concatenate([data.qpos, data.qvel, data.cvel[1], data.xpos[self.keys].ravel()])
+
+    def fell(self) -> bool:
+        if not np.all(np.isfinite(self.data.qpos)):
+            return True
+        return self.emb.floating_base and self.data.qpos[2] < 0.5 * self.emb.standing_root_height
+
+    def track(self, seconds: float) -> np.ndarray | None:
+        """Key-body positions under the workload for `seconds`; None if it falls."""
+        actions, out = _actions(self.emb, 0), []
+        for _ in range(int(round(seconds * 30))):
+            self.step(next(actions))
+            if self.fell():
+                return None
+            out.append(self.data.xpos[self.keys].copy())
+        return np.array(out)
+
+
+def mujoco_peer(robot: str, hands: str, seconds: float, control_rate: float = 30.0) -> dict:
+    """The same loop under MuJoCo (the `mujoco` extra), at its own stable step,
+    with its fidelity figure against its own fine step."""
+    fine = _MujocoRobot(robot, hands, FINE_STEP, control_rate).track(FIDELITY_SECONDS)
+    time_step, error = None, None
+    for step in MUJOCO_STEPS:  # the largest step that stands the workload
+        track = _MujocoRobot(robot, hands, step, control_rate).track(FIDELITY_SECONDS)
+        if track is not None:
+            time_step = step
+            if fine is not None:
+                error = round(1000 * float(np.sqrt(np.mean(np.sum((track - fine) ** 2, axis=-1)))), 2)
+            break
+    if time_step is None:
+        time_step = MUJOCO_STEPS[-1]
+    sim = _MujocoRobot(robot, hands, time_step, control_rate)
+    actions = _actions(sim.emb, 0)
+    steps, episodes = 0, 0
     start = time.perf_counter()
     while time.perf_counter() - start < seconds:
-        data.ctrl[actuator] = scaling.to_targets(next(actions))
-        next_control = (steps - episode_start + 1) * period
-        substeps = max(1, int(round((next_control - data.time) / time_step)))
-        mujoco.mj_step(model, data, nstep=substeps)
-        np.concatenate([data.qpos, data.qvel, data.cvel[1], data.xpos[keys].ravel()])  # the observation read
+        sim.step(next(actions))
         steps += 1
-        if floating and data.qpos[2] < 0.5 * emb.standing_root_height:
+        if sim.fell():
             episodes += 1
-            episode_start = steps
-            reset()
+            sim.reset()
     wall = time.perf_counter() - start
     return {
-        "engine": f"mujoco {mujoco.__version__}",
+        "engine": f"mujoco {sim.mujoco.__version__}",
+        "time_step": time_step,
         "env_steps_per_second": round(steps / wall, 1),
-        "substeps_per_control_step": round(period / time_step, 3),
+        "substeps_per_control_step": round(sim.period / time_step, 3),
         "episodes_ended": episodes,
+        "trajectory_error_mm": error,
     }

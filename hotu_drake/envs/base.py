@@ -1,8 +1,9 @@
 """DiagramEnv: a gymnasium environment over a scenario diagram.
 
 The environment builds one diagram from a `Scenario` (by default the
-environment's own: the robot on the floor, a 1/180 s step, actions at
-30 Hz; or a scenario file or shipped name given as `scenario=`), with the
+environment's own: the robot on the floor, the default plant (1/60 s,
+near-rigid threshold 0.1), actions at 30 Hz; or a scenario file or
+shipped name given as `scenario=`), with the
 `ActionInput` driver, and reuses it for every episode (a reset rewrites
 the context). One `step` holds the action (normalised PD targets) for one
 control period (1/30 s by default) while the simulator advances the plant
@@ -40,8 +41,7 @@ MAX_AMP_HISTORY = 300  # frames (10 s at 30 Hz) of AMP observation kept per step
 
 # The environments' own scenario, where no `scenario=` is given.
 DEFAULT_ROBOT, DEFAULT_HANDS = "h1", "none"
-DEFAULT_TIME_STEP = 1.0 / 180.0
-DEFAULT_CONTROL_RATE = 30.0
+DEFAULT_CONTROL_RATE = 30.0  # the plant's step and contact: the scenario default (`scenario.DEFAULT_TIME_STEP`)
 
 
 def environment_scenario(
@@ -59,7 +59,6 @@ def environment_scenario(
     driver, and `objects` added to its own."""
     if scenario is None:
         base = Scenario(embodiment=DEFAULT_ROBOT, hands=DEFAULT_HANDS, control_rate=DEFAULT_CONTROL_RATE)
-        base.plant_config.time_step = DEFAULT_TIME_STEP
     else:
         base = load_scenario(scenario) if isinstance(scenario, str) else copy.deepcopy(scenario)
     base.embodiment = check_choice(robot, "robot", EMBODIMENT_NAMES, "environment") if robot else base.embodiment
@@ -262,7 +261,7 @@ class DiagramEnv(gym.Env):
             tick = time.perf_counter()
             amp = self._amp_port.Eval(self._context).copy()
             self.timings.amp_observation += time.perf_counter() - tick
-            if not (np.all(np.isfinite(observation)) and np.all(np.isfinite(amp))):
+            if not np.isfinite(observation).all():  # the AMP frame is drawn from the same features
                 raise FloatingPointError("the state diverged (non-finite observation)")
             self._history.append(amp)
             terminated = self._fell()

@@ -5,13 +5,14 @@ robots through registered environment ids.
 
 - `EnvSpec` is the rollout worker's unit: a plain, picklable description
   (environment id, keywords, and the module whose import registers the
-  id) that makes one environment in whichever process calls it. Gymnasium's `AsyncVectorEnv` calls it in its worker
-  processes; a distributed engine (a Ray actor per worker, later) can do
-  the same on other machines.
+  id) that makes one environment in whichever process calls it:
+  gymnasium's `AsyncVectorEnv` in its worker processes, or a Ray actor
+  (`ray_workers`) on this machine or another.
 - `make_vector_env(spec, N)` runs N environments in N processes (also for
-  N = 1, so tests take the same path as training). Episodes reset in the
-  same step they end; the last observation and info of an ended episode are
-  in `info["final_obs"]` and `info["final_info"]`.
+  N = 1, so tests take the same path as training), or with
+  `backend="ray"` in N Ray actors (`address` names an existing cluster).
+  Episodes reset in the same step they end; the last observation and info
+  of an ended episode are in `info["final_obs"]` and `info["final_info"]`.
 - `RolloutCollector` steps a vector environment with a policy (any
   function from a batch of observations to a batch of actions) and returns
   a `RolloutBatch` of arrays shaped (steps, N, ...).
@@ -24,6 +25,8 @@ from dataclasses import dataclass, field
 import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AsyncVectorEnv, AutoresetMode
+
+from hotu_drake.errors import check_choice, check_number
 
 
 @dataclass(frozen=True)
@@ -44,10 +47,20 @@ class EnvSpec:
         return self.make()
 
 
-def make_vector_env(spec: EnvSpec, num_envs: int, start_method: str = "spawn") -> AsyncVectorEnv:
-    """`num_envs` environments, each in its own worker process."""
-    if num_envs < 1:
-        raise ValueError("num_envs must be at least 1")
+BACKENDS = ("local", "ray")
+
+
+def make_vector_env(
+    spec: EnvSpec, num_envs: int, start_method: str = "spawn", backend: str = "local", address: str | None = None
+) -> gym.vector.VectorEnv:
+    """`num_envs` environments, each in its own worker process (`local`) or
+    Ray actor (`ray`, on a cluster given by `address`, e.g. "auto")."""
+    num_envs = check_number(num_envs, "num_envs", low=1, high=4096, integer=True)
+    check_choice(backend, "backend", BACKENDS)
+    if backend == "ray":
+        from hotu_drake.learning.ray_workers import RayVectorEnv
+
+        return RayVectorEnv(spec, num_envs, address)
     return AsyncVectorEnv(
         [spec] * num_envs, shared_memory=False, context=start_method, autoreset_mode=AutoresetMode.SAME_STEP
     )

@@ -68,20 +68,24 @@ class ObservationSystem(LeafSystem):
         roles = key_body_roles(embodiment)
         self._key_bodies = [int(plant.GetBodyByName(embodiment.key_bodies[r], model).index()) for r in roles]
         self.observation_size = observation_size(embodiment)
+        # The observation is the feature vector [root, q, v, key bodies]; an AMP
+        # frame gathers from it part by part (`_amp_index`).
+        n = len(embodiment.joint_names)
+        q_at, v_at, keys_at = ROOT_FEATURES, ROOT_FEATURES + n, ROOT_FEATURES + 2 * n
         self.part_slices: dict[str, slice] = {"root": slice(0, ROOT_FEATURES)}
-        self._part_columns: list[tuple[str, list[int], list[int]]] = []
-        start = ROOT_FEATURES
+        index = list(range(ROOT_FEATURES))
         names = embodiment.joint_names
         for part, joints in embodiment.parts.items():
             if not joints:
                 continue
             columns = [names.index(j) for j in joints]
             keys = [roles.index(r) for r in PART_KEY_BODIES.get(part, ()) if r in roles]
-            size = 2 * len(columns) + 3 * len(keys)
-            self.part_slices[part] = slice(start, start + size)
-            self._part_columns.append((part, columns, keys))
-            start += size
-        self.amp_size = start
+            start = len(index)
+            index += [q_at + c for c in columns] + [v_at + c for c in columns]
+            index += [keys_at + 3 * k + axis for k in keys for axis in range(3)]
+            self.part_slices[part] = slice(start, len(index))
+        self._amp_index = np.array(index)
+        self.amp_size = len(index)
         self._state = self.DeclareVectorInputPort("state", plant.num_multibody_states(model))
         self._poses = self.DeclareAbstractInputPort("body_poses", plant.get_body_poses_output_port().Allocate())
         self._velocities = self.DeclareAbstractInputPort(
@@ -96,37 +100,33 @@ class ObservationSystem(LeafSystem):
         self.DeclareVectorOutputPort("amp_observation", self.amp_size, self._CalcAmpObservation)
 
     def _CalcFeatures(self, context: Context, value) -> None:
-        """Root features, joint positions and velocities, key bodies (heading frame)."""
+        """[root, q, v, key bodies] in the heading frame: root height, tangent
+        and normal axes, linear and angular velocity; joints; hands and feet
+        relative to the root."""
         state = self._state.Eval(context)
         poses = self._poses.Eval(context)
         pose = poses[self._root]
         velocity = self._velocities.Eval(context)[self._root]
-        rotation = pose.rotation().matrix()
+        rotation, origin = pose.rotation().matrix(), pose.translation()
         heading = heading_rotation(rotation)
         local = heading.T @ rotation
-        root = np.concatenate(
-            [
-                [pose.translation()[2]],
-                local[:, 0],
-                local[:, 2],
-                heading.T @ velocity.translational(),
-                heading.T @ velocity.rotational(),
-            ]
-        )
-        origin = pose.translation()
-        keys = np.array([heading.T @ (poses[body].translation() - origin) for body in self._key_bodies]).reshape(-1, 3)
-        value.set_value((root, state[self._q], state[self._v], keys))
+        n = len(self._q)
+        features = np.empty(self.observation_size)
+        features[0] = origin[2]
+        features[1:4], features[4:7] = local[:, 0], local[:, 2]
+        features[7:10] = heading.T @ velocity.translational()
+        features[10:13] = heading.T @ velocity.rotational()
+        features[ROOT_FEATURES : ROOT_FEATURES + n] = state[self._q]
+        features[ROOT_FEATURES + n : ROOT_FEATURES + 2 * n] = state[self._v]
+        keys = np.array([poses[body].translation() for body in self._key_bodies]).reshape(-1, 3) - origin
+        features[ROOT_FEATURES + 2 * n :] = (keys @ heading).ravel()  # rows: heading.T @ each
+        value.set_value(features)
 
     def _CalcObservation(self, context: Context, output: BasicVector) -> None:
-        root, q, v, keys = self._features.Eval(context)
-        output.SetFromVector(np.concatenate([root, q, v, keys.ravel()]))
+        output.SetFromVector(self._features.Eval(context))
 
     def _CalcAmpObservation(self, context: Context, output: BasicVector) -> None:
-        root, q, v, keys = self._features.Eval(context)
-        pieces = [root]
-        for _, columns, key_rows in self._part_columns:
-            pieces += [q[columns], v[columns], keys[key_rows].ravel()]
-        output.SetFromVector(np.concatenate(pieces))
+        output.SetFromVector(self._features.Eval(context)[self._amp_index])
 
     def fix_inputs_from_plant(self, context: Context, plant: MultibodyPlant, plant_context, model) -> None:
         """Fix this system's inputs in `context` (its own, outside a diagram)
