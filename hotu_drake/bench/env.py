@@ -13,8 +13,9 @@ same motion), the actions are the standing pose's plus Gaussian noise
   second summed over the workers, including the inter-process traffic;
 - with a peer, the same embodiment's MJCF under MuJoCo at its own stable
   step (the largest of `MUJOCO_STEPS` at which it stands the workload for
-  3 s), on a floor plane: position actuators with the same gains and effort
-  limits, `mj_step` over the control period, then the same kind of
+  3 s within the fidelity bound of its own fine step), on a floor plane:
+  position actuators with the same gains and effort limits, `mj_step`
+  over the control period, then the same kind of
   observation read (joint state, root pose and velocity, key bodies).
 
 Each engine's speed comes with its fidelity figure: the RMS distance of
@@ -29,6 +30,7 @@ import gymnasium as gym
 import numpy as np
 
 from hotu_drake import embodiment as embodiments
+from hotu_drake.bench.fidelity import ERROR_BOUND_MM
 from hotu_drake.embodiment.actions import ActionScaling, standing_action
 from hotu_drake.embodiment.spec import FOOT_ROLES, HAND_ROLES
 from hotu_drake.envs import EnvSpec, make_vector_env
@@ -218,19 +220,19 @@ class _MujocoRobot:
 
 
 def mujoco_peer(robot: str, hands: str, seconds: float, control_rate: float = 30.0) -> dict:
-    """The same loop under MuJoCo (the `mujoco` extra), at its own stable step,
-    with its fidelity figure against its own fine step."""
+    """The same loop under MuJoCo (the `mujoco` extra), at its own stable step
+    (the largest of `MUJOCO_STEPS` at which it stands the workload within the
+    fidelity harness's bound of its own fine step), with that fidelity figure."""
     fine = _MujocoRobot(robot, hands, FINE_STEP, control_rate).track(FIDELITY_SECONDS)
-    time_step, error = None, None
-    for step in MUJOCO_STEPS:  # the largest step that stands the workload
+    time_step, error = MUJOCO_STEPS[-1], None
+    for step in MUJOCO_STEPS:  # the largest step that stands the workload within the fidelity bound
         track = _MujocoRobot(robot, hands, step, control_rate).track(FIDELITY_SECONDS)
-        if track is not None:
+        if track is None:
+            continue
+        error = None if fine is None else round(1000 * float(np.sqrt(np.mean(np.sum((track - fine) ** 2, axis=-1)))), 2)
+        if error is not None and error <= ERROR_BOUND_MM:
             time_step = step
-            if fine is not None:
-                error = round(1000 * float(np.sqrt(np.mean(np.sum((track - fine) ** 2, axis=-1)))), 2)
             break
-    if time_step is None:
-        time_step = MUJOCO_STEPS[-1]
     sim = _MujocoRobot(robot, hands, time_step, control_rate)
     actions = _actions(sim.emb, 0)
     steps, episodes = 0, 0

@@ -9,7 +9,8 @@ robots through registered environment ids.
   gymnasium's `AsyncVectorEnv` in its worker processes, or a Ray actor
   (`ray_workers`) on this machine or another.
 - `make_vector_env(spec, N)` runs N environments in N processes (also for
-  N = 1, so tests take the same path as training), or with
+  N = 1, so tests take the same path as training; `workers`: batches
+  through shared memory), or with
   `backend="ray"` in N Ray actors (`address` names an existing cluster).
   Episodes reset in the same step they end; the last observation and info
   of an ended episode are in `info["final_obs"]` and `info["final_info"]`.
@@ -24,7 +25,6 @@ from dataclasses import dataclass, field
 
 import gymnasium as gym
 import numpy as np
-from gymnasium.vector import AsyncVectorEnv, AutoresetMode
 
 from hotu_drake.errors import check_choice, check_number
 
@@ -61,9 +61,9 @@ def make_vector_env(
         from hotu_drake.learning.ray_workers import RayVectorEnv
 
         return RayVectorEnv(spec, num_envs, address)
-    return AsyncVectorEnv(
-        [spec] * num_envs, shared_memory=False, context=start_method, autoreset_mode=AutoresetMode.SAME_STEP
-    )
+    from hotu_drake.learning.workers import SharedMemoryVectorEnv
+
+    return SharedMemoryVectorEnv(spec, num_envs, context=start_method)
 
 
 @dataclass
@@ -90,7 +90,7 @@ class RolloutCollector:
     def __init__(self, envs: gym.vector.VectorEnv, seed: int | None = None):
         self.envs = envs
         self._observations, info = envs.reset(seed=seed)
-        self._parts = list(info["amp"])
+        self._parts = [part for part in info["amp"] if not part.startswith("_")]  # not gymnasium's masks
 
     def collect(self, policy: Callable[[np.ndarray], np.ndarray], steps: int) -> RolloutBatch:
         obs, actions, rewards, terminated, truncated, next_obs, interaction = [], [], [], [], [], [], []
