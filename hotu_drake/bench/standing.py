@@ -1,5 +1,7 @@
 """Real-time factor of each embodiment standing after a drop, on one core."""
 
+import contextlib
+import os
 import platform
 import resource
 import time
@@ -12,16 +14,24 @@ from hotu_drake.scenario import default_plant_config
 
 def pin_to_one_core() -> None:
     """Run on a single core so figures are per core."""
-    import os
-
     if hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
 
 
+@contextlib.contextmanager
+def one_core():
+    """Run the block on a single core, then on the cores of before."""
+    before = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
+    pin_to_one_core()
+    try:
+        yield
+    finally:
+        if before is not None:
+            os.sched_setaffinity(0, before)
+
+
 def machine() -> dict:
     """What the figures were measured on."""
-    import os
-
     return {
         "cpu": _cpu_model(),
         "cores_visible": os.cpu_count(),
