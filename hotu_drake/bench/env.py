@@ -43,11 +43,14 @@ FIDELITY_SECONDS = 3.0
 MUJOCO_STEPS = (1 / 60, 1 / 120, 1 / 240, 1 / 480, 1 / 960)  # candidates for MuJoCo's own stable step
 
 
-def _actions(emb, seed: int):
+def _actions(emb, seed: int, batch: tuple[int, ...] = ()):
+    """The benchmark's policy: the standing action plus noise, for one
+    environment or, with `batch=(n,)`, for n at once as a policy acts on a batch."""
     rng = np.random.default_rng(seed)
-    standing = standing_action(emb)
+    standing = standing_action(emb).astype(np.float32)
     while True:
-        yield np.clip(standing + NOISE * rng.standard_normal(standing.size), -1.0, 1.0).astype(np.float32)
+        noise = rng.standard_normal((*batch, standing.size), dtype=np.float32)
+        yield np.clip(standing + NOISE * noise, -1.0, 1.0)
 
 
 def peak_memory_mb() -> dict:
@@ -115,16 +118,12 @@ def vectorised(
     try:
         envs.reset(seed=seed)
         emb = embodiments.load(robot, hands)
-        streams = [_actions(emb, seed + i) for i in range(num_envs)]
-
-        def batch():
-            return np.stack([next(s) for s in streams])
-
+        actions = _actions(emb, seed, (num_envs,))
         for _ in range(10):
-            envs.step(batch())
+            envs.step(next(actions))
         steps, start = 0, time.perf_counter()
         while time.perf_counter() - start < seconds:
-            envs.step(batch())
+            envs.step(next(actions))
             steps += num_envs
         wall = time.perf_counter() - start
     finally:

@@ -18,7 +18,7 @@ arrays of fixed shape (or that has no `info["amp"]`).
 import multiprocessing
 import os
 import traceback
-from multiprocessing import connection, shared_memory
+from multiprocessing import shared_memory
 from typing import Any
 
 import numpy as np
@@ -64,7 +64,7 @@ def _worker(spec, index: int, pipe) -> None:
     """One environment: answer the main process's commands until `close`."""
     cores = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else []
     if len(cores) > 1:  # one core per worker: the scheduler would otherwise let workers share one
-        os.sched_setaffinity(0, {cores[(index + 1) % len(cores)]})  # the first core is left to the main process last
+        os.sched_setaffinity(0, {cores[index % len(cores)]})
     try:
         env = spec.make()
         observation, info = env.reset()
@@ -146,17 +146,16 @@ class SharedMemoryVectorEnv(VectorEnv):
             pipe.send(("buffers", shapes, self._buffers.names))
 
     def _receive_all(self) -> list:
-        """Every worker's answer, taken as they come (the first ones are
-        handled while the others still step), in worker order."""
-        answers = [None] * len(self._pipes)
-        waiting = {pipe: i for i, pipe in enumerate(self._pipes)}
-        while waiting:
-            for pipe in connection.wait(list(waiting)):
-                answer = pipe.recv()
-                if answer[0] == "error":
-                    self.close()
-                    raise answer[1]
-                answers[waiting.pop(pipe)] = answer
+        """Every worker's answer, in worker order. Waiting on each pipe in turn
+        measured faster than taking answers as they come (`connection.wait`),
+        whose early wake-ups take a core from a worker still stepping."""
+        answers = []
+        for pipe in self._pipes:
+            answer = pipe.recv()
+            if answer[0] == "error":
+                self.close()
+                raise answer[1]
+            answers.append(answer)
         return answers
 
     def _amp(self, key: str, rows=slice(None)) -> dict:
