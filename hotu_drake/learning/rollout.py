@@ -5,13 +5,13 @@ robots through registered environment ids.
 
 - `EnvSpec` is the rollout worker's unit: a plain, picklable description
   (environment id, keywords, and the module whose import registers the
-  id) that makes one environment in whichever process calls it:
-  gymnasium's `AsyncVectorEnv` in its worker processes, or a Ray actor
-  (`ray_workers`) on this machine or another.
-- `make_vector_env(spec, N)` runs N environments in N processes (also for
-  N = 1, so tests take the same path as training; `workers`: batches
-  through shared memory), or with
-  `backend="ray"` in N Ray actors (`address` names an existing cluster).
+  id) that makes one environment in whichever process calls it: a local
+  worker process (`workers`) or a Ray actor (`ray_workers`) on this
+  machine or another.
+- `make_vector_env(spec, N)` runs N environments in N processes, one core
+  each, batches through shared memory (also for N = 1, so tests take the
+  same path as training), or with `backend="ray"` in N Ray actors
+  (`address` names an existing cluster).
   Episodes reset in the same step they end; the last observation and info
   of an ended episode are in `info["final_obs"]` and `info["final_info"]`.
 - `RolloutCollector` steps a vector environment with a policy (any
