@@ -64,6 +64,7 @@ from hotu_drake.scenario import (
 )
 from hotu_drake.systems.base_command import AddPlanarBaseCommand
 from hotu_drake.systems.interaction_graph import AddInteractionGraph
+from hotu_drake.systems.latents import AddLatentSampler
 from hotu_drake.systems.object_holder import AddObjectHolder
 from hotu_drake.systems.observation import AddObservation, ObservationSystem
 from hotu_drake.systems.pd import AddActionToTargets, AddPdControl
@@ -255,9 +256,16 @@ def _(driver: ReferenceTracking, parts: DiagramParts) -> OutputPort:
 
 @add_driver.register
 def _(driver: PolicyCheckpoint, parts: DiagramParts) -> OutputPort:
-    network = load_policy(parts.scenario.resolve(driver.checkpoint), parts.embodiment)
+    network, meta = load_policy(parts.scenario.resolve(driver.checkpoint), parts.embodiment)
     observation = parts.observation().GetOutputPort("observation")
-    policy = AddPolicy(parts.builder, network, observation, parts.scenario.control_rate)
+    rate = parts.scenario.control_rate
+    latents = None
+    if network.config.latent_sizes and driver.latents == "prior":
+        prior = meta["latent"]
+        groups = list(network.config.latent_sizes)
+        low, high = int(prior["resample_min"]), int(prior["resample_max"])
+        latents = AddLatentSampler(parts.builder, groups, int(prior["size"]), low, high, rate, driver.latent_seed)
+    policy = AddPolicy(parts.builder, network, observation, rate, latents)
     targets = AddActionToTargets(parts.builder, parts.embodiment, parts.explicit)
     parts.builder.Connect(policy.GetOutputPort("action"), targets.get_input_port())
     parts.builder.ExportOutput(policy.GetOutputPort("action"), "action")

@@ -76,12 +76,15 @@ class ReferenceTracking:
 
 @dataclass
 class PolicyCheckpoint:
-    """A policy checkpoint (written by training) sets the PD targets at the
-    scenario's `control_rate`, from the ObservationSystem; its skill latents
-    are held at zero until skills are composed. A path relative to the
-    scenario file."""
+    """A policy checkpoint (written by `python -m hotu_drake.train`) sets the
+    PD targets at the scenario's `control_rate`, from the ObservationSystem.
+    Its latents are drawn from the prior it was trained with (`prior`,
+    seeded by `latent_seed`) or held at zero (`zero`). A path relative to
+    the scenario file."""
 
     checkpoint: str = ""
+    latents: str = "prior"
+    latent_seed: int = 0
 
 
 @dataclass
@@ -243,8 +246,11 @@ class Scenario:
                 source,
                 "initial.reference_time",
             )
-        if isinstance(self.driver, PolicyCheckpoint) and not self.resolve(self.driver.checkpoint).is_file():
-            raise InputError(f"policy checkpoint {self.driver.checkpoint!r} not found", source, "driver.checkpoint")
+        if isinstance(self.driver, PolicyCheckpoint):
+            if not self.resolve(self.driver.checkpoint).is_file():
+                raise InputError(f"policy checkpoint {self.driver.checkpoint!r} not found", source, "driver.checkpoint")
+            check_choice(self.driver.latents, "driver.latents", ("prior", "zero"), source)
+            check_number(self.driver.latent_seed, "driver.latent_seed", source, low=0, high=2**31 - 1, integer=True)
         if isinstance(self.driver, BaseTwist) and self.controller != "implicit":
             raise InputError("!BaseTwist drives the built-in PD (controller: implicit)", source, "driver")
         names = [o.instance_name for o in self.objects]

@@ -623,12 +623,16 @@ def _load_checkpoint(path):
 
 
 CHECKPOINT_CASES = {
-    "config_lacks_fields": (lambda d: d["config"].pop("action_size"), "action_size"),
-    "config_hidden_text": (lambda d: d["config"].update(hidden="big"), "config_hidden_text.pt"),
-    "config_size_negative": (lambda d: d["config"].update(observation_size=-5), "config_size_negative.pt"),
-    "weights_missing": (lambda d: d["state_dict"].clear(), "weights_missing.pt"),
+    "config_lacks_fields": (lambda d: d["policy"]["config"].pop("action_size"), "action_size"),
+    "config_hidden_text": (lambda d: d["policy"]["config"].update(hidden="big"), "config_hidden_text.pt"),
+    "config_size_negative": (lambda d: d["policy"]["config"].update(observation_size=-5), "config_size_negative.pt"),
+    "offset_wrong_length": (lambda d: d["policy"]["config"].update(action_offset=[0.1] * 3), "action_offset"),
+    "weights_missing": (lambda d: d["policy"]["state_dict"].clear(), "weights_missing.pt"),
     "version_old": (lambda d: d.update(format_version=0), "format version"),
-    "no_config": (lambda d: d.pop("config"), "no_config.pt"),
+    "version_one": (lambda d: d.update(format_version=1), "format version 1"),
+    "kind_unknown": (lambda d: d.update(kind="weights"), "kind"),
+    "no_config": (lambda d: d["policy"].pop("config"), "no_config.pt"),
+    "no_policy": (lambda d: d.pop("policy"), "no_policy.pt"),
 }
 for _name, (_change, _expect) in CHECKPOINT_CASES.items():
 

@@ -48,7 +48,7 @@ def test_policy_drives_the_pd_targets_through_the_action_scaling(tmp_path):
     h1 = embodiment.load("h1", "none")
     network = policy_for(h1, seed=3)
     path = save_checkpoint(tmp_path / "policy.pt", network, "h1", "none")
-    driver = PolicyCheckpoint(str(path))
+    driver = PolicyCheckpoint(str(path), latents="zero")
     scenario = Scenario(embodiment="h1", initial=InitialCondition(drop_height=0.0), driver=driver, control_rate=20.0)
     sim = build_simulation(scenario)
     latents = {part: torch.zeros(1, size) for part, size in network.config.latent_sizes.items()}

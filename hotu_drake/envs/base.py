@@ -284,6 +284,21 @@ class DiagramEnv(gym.Env):
         self._observer.fix_inputs_from_plant(self._scratch_observer, sim.plant, self._scratch_plant, sim.model)
         return self._observer.GetOutputPort("amp_observation").Eval(self._scratch_observer).copy()
 
+    def clip_observation(self, clip_index: int, time_: float) -> np.ndarray:
+        """The policy observation at reference clip `clip_index`'s state at
+        `time_`, aligned as reference starts are (for behavior cloning)."""
+        self.clip_amp_frame(clip_index, time_)  # sets the scratch contexts to that state
+        robot = self._observer.GetOutputPort("observation").Eval(self._scratch_observer)
+        return np.concatenate([robot, self._extra_observation()]).astype(np.float32)
+
+    def amp_layout(self) -> dict[str, list[str]]:
+        """The column labels of each key of `info["amp"]` (`learning.parts.AmpLayout`)."""
+        return {key: list(labels) for key, labels in self._observer.amp_labels.items()}
+
+    def joint_position_columns(self) -> np.ndarray:
+        """The observation's columns holding the joint positions, in joint order."""
+        return self._observer.joint_position_columns.copy()
+
     def _truncate_after_failure(self, error: Exception, when: float):
         """End the episode as truncated, returning the last good observation and info."""
         reason = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__

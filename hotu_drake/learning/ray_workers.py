@@ -67,14 +67,20 @@ class RayVectorEnv(VectorEnv):
         self._observations = create_empty_array(self.single_observation_space, num_envs, fn=np.zeros)
 
     def reset(self, *, seed: int | list[int | None] | None = None, options: dict | None = None):
+        """Reset every environment, or with `options={"reset_mask": mask}` those where `mask` is true."""
+        options = dict(options or {})
+        mask = np.asarray(options.pop("reset_mask", np.ones(self.num_envs, bool)), dtype=bool)
         seeds = [None] * self.num_envs if seed is None else seed
         if isinstance(seeds, int):
             seeds = [seeds + i for i in range(self.num_envs)]
-        results = self._ray.get([w.reset.remote(s, options) for w, s in zip(self.workers, seeds)])
+        chosen = np.flatnonzero(mask)
+        results = self._ray.get([self.workers[i].reset.remote(seeds[i], options or None) for i in chosen])
         infos: dict[str, Any] = {}
-        for i, (_, info) in enumerate(results):
+        observations = list(self._observations)
+        for i, (observation, info) in zip(chosen, results):
+            observations[i] = observation
             infos = self._add_info(infos, info, i)
-        return self._batch([obs for obs, _ in results]), infos
+        return self._batch(observations), infos
 
     def step(self, actions):
         futures = [w.step.remote(a) for w, a in zip(self.workers, actions)]

@@ -149,27 +149,33 @@ class SharedMemoryVectorEnv(VectorEnv):
         """Every worker's answer, in worker order. Waiting on each pipe in turn
         measured faster than taking answers as they come (`connection.wait`),
         whose early wake-ups take a core from a worker still stepping."""
-        answers = []
-        for pipe in self._pipes:
-            answer = pipe.recv()
-            if answer[0] == "error":
-                self.close()
-                raise answer[1]
-            answers.append(answer)
-        return answers
+        return [self._receive(i) for i in range(len(self._pipes))]
+
+    def _receive(self, index: int):
+        answer = self._pipes[index].recv()
+        if answer[0] == "error":
+            self.close()
+            raise answer[1]
+        return answer
 
     def _amp(self, key: str, rows=slice(None)) -> dict:
         frames = self._buffers.arrays[key][rows].copy()
         return {part: frames[..., s] for part, s in self._slices.items()}
 
     def reset(self, *, seed: int | list[int | None] | None = None, options: dict | None = None):
+        """Reset every environment, or with `options={"reset_mask": mask}` those
+        where `mask` is true (the others keep their episodes and observations)."""
+        options = dict(options or {})
+        mask = np.asarray(options.pop("reset_mask", np.ones(self.num_envs, bool)), dtype=bool)
         seeds = [None] * self.num_envs if seed is None else seed
         if isinstance(seeds, int):
             seeds = [seeds + i for i in range(self.num_envs)]
-        for pipe, s in zip(self._pipes, seeds):
-            pipe.send(("reset", (s, options)))
+        chosen = np.flatnonzero(mask)
+        for i in chosen:
+            self._pipes[i].send(("reset", (seeds[i], options or None)))
         infos: dict[str, Any] = {}
-        for i, (_, info, _) in enumerate(self._receive_all()):
+        for i in chosen:
+            _, info, _ = self._receive(i)
             infos = self._add_info(infos, info, i)
         if self._parts:
             infos["amp"] = self._amp("amp")

@@ -30,6 +30,13 @@ from hotu_drake.rotations import heading_rotation
 # a foot with the ankle).
 PART_KEY_BODIES = {"wrist": HAND_ROLES, "ankle": FOOT_ROLES}
 ROOT_FEATURES = 1 + 6 + 3 + 3  # height, tangent and normal, linear and angular velocity
+ROOT_LABELS = (
+    "root:height",
+    *(f"root:tangent_{a}" for a in "xyz"),
+    *(f"root:normal_{a}" for a in "xyz"),
+    *(f"root:linear_velocity_{a}" for a in "xyz"),
+    *(f"root:angular_velocity_{a}" for a in "xyz"),
+)
 
 
 def key_body_roles(embodiment: Embodiment) -> list[str]:
@@ -73,6 +80,7 @@ class ObservationSystem(LeafSystem):
         n = len(embodiment.joint_names)
         q_at, v_at, keys_at = ROOT_FEATURES, ROOT_FEATURES + n, ROOT_FEATURES + 2 * n
         self.part_slices: dict[str, slice] = {"root": slice(0, ROOT_FEATURES)}
+        self.amp_labels: dict[str, list[str]] = {"root": list(ROOT_LABELS)}  # column names, part by part
         index = list(range(ROOT_FEATURES))
         names = embodiment.joint_names
         for part, joints in embodiment.parts.items():
@@ -84,6 +92,9 @@ class ObservationSystem(LeafSystem):
             index += [q_at + c for c in columns] + [v_at + c for c in columns]
             index += [keys_at + 3 * k + axis for k in keys for axis in range(3)]
             self.part_slices[part] = slice(start, len(index))
+            labels = [f"{names[c]}:q" for c in columns] + [f"{names[c]}:v" for c in columns]
+            self.amp_labels[part] = labels + [f"{roles[k]}:{axis}" for k in keys for axis in "xyz"]
+        self.joint_position_columns = np.arange(q_at, q_at + n)  # of the observation, in joint order
         self._amp_index = np.array(index)
         self.amp_size = len(index)
         self._state = self.DeclareVectorInputPort("state", plant.num_multibody_states(model))

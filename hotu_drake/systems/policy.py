@@ -28,24 +28,19 @@ LATENT_SIZE = 16  # per functional part
 
 def policy_for(embodiment: Embodiment, latent_size: int = LATENT_SIZE, seed: int = 0) -> PolicyNetwork:
     """A freshly initialised policy shaped for `embodiment`: its observation,
-    one action per joint, one latent per functional part. Its output layer
-    starts small around the standing pose's action, so an untrained policy
-    holds the robot roughly upright (training starts here)."""
+    one action per joint, one latent per functional part. Its mean action
+    starts at the standing pose's, so an untrained policy holds the robot
+    roughly upright (training starts here)."""
     torch.manual_seed(seed)
     parts = {part: latent_size for part, joints in embodiment.parts.items() if joints}
-    config = PolicyConfig(observation_size(embodiment), len(embodiment.joint_names), parts)
-    network = PolicyNetwork(config)
-    standing = np.clip(standing_action(embodiment), -0.99, 0.99)
-    output = network.body[-1]
-    with torch.no_grad():
-        output.weight.mul_(0.01)
-        output.bias.copy_(torch.atanh(torch.as_tensor(standing, dtype=torch.float32)))
-    return network
+    offset = tuple(float(a) for a in standing_action(embodiment))
+    config = PolicyConfig(observation_size(embodiment), len(embodiment.joint_names), parts, action_offset=offset)
+    return PolicyNetwork(config)
 
 
-def load_policy(path: str | Path, embodiment: Embodiment) -> PolicyNetwork:
-    """The network of a checkpoint, checked against `embodiment`; a file
-    that does not fit raises `UserError` naming it."""
+def load_policy(path: str | Path, embodiment: Embodiment) -> tuple[PolicyNetwork, dict]:
+    """The network of a checkpoint and its metadata, checked against
+    `embodiment`; a file that does not fit raises `UserError` naming it."""
     try:
         network, meta = load_checkpoint(path)
     except CheckpointError as error:
@@ -58,7 +53,10 @@ def load_policy(path: str | Path, embodiment: Embodiment) -> PolicyNetwork:
     if network.config.action_size != len(embodiment.joint_names):
         actions, joints = network.config.action_size, len(embodiment.joint_names)
         raise UserError(f"{path}: the policy has {actions} actions, {embodiment.name} has {joints} joints")
-    return network
+    if network.config.observation_size != observation_size(embodiment):
+        size, expected = network.config.observation_size, observation_size(embodiment)
+        raise UserError(f"{path}: the policy observes {size} numbers, {embodiment.name}'s observation has {expected}")
+    return network, meta
 
 
 class PolicySystem(LeafSystem):
@@ -109,13 +107,21 @@ class PolicySystem(LeafSystem):
 
 
 def AddPolicy(
-    builder: DiagramBuilder, network: PolicyNetwork, observation: OutputPort, control_rate: float = CONTROL_RATE
+    builder: DiagramBuilder,
+    network: PolicyNetwork,
+    observation: OutputPort,
+    control_rate: float = CONTROL_RATE,
+    latents: LeafSystem | None = None,
 ) -> PolicySystem:
-    """Add a `PolicySystem` named `policy` fed by `observation`; its skill
-    latents are held at zero (`latent_<part>_source`) until skills are composed."""
+    """Add a `PolicySystem` named `policy` fed by `observation`; its latents
+    come from `latents` (a system with a `latent_<group>` output per group,
+    e.g. `LatentSampler`), or are held at zero (`latent_<group>_source`)."""
     policy = builder.AddNamedSystem("policy", PolicySystem(network, control_rate))
     builder.Connect(observation, policy.GetInputPort("observation"))
     for port in policy.latent_input_ports().values():
+        if latents is not None:
+            builder.Connect(latents.GetOutputPort(port.get_name()), port)
+            continue
         source = builder.AddNamedSystem(f"{port.get_name()}_source", ConstantVectorSource(np.zeros(port.size())))
         builder.Connect(source.get_output_port(), port)
     return policy

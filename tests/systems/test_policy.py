@@ -19,7 +19,7 @@ def _network() -> PolicyNetwork:
         PolicyConfig(observation_size=7, action_size=3, latent_sizes={"hip": 2, "knee": 4}, hidden=(16,))
     )
     network.normalizer.mean.copy_(torch.linspace(-1, 1, 7))
-    network.normalizer.std.copy_(torch.full((7,), 2.0))
+    network.normalizer.var.copy_(torch.full((7,), 4.0))
     return network
 
 
@@ -27,7 +27,8 @@ def test_checkpoint_round_trip(tmp_path):
     network = _network()
     path = save_checkpoint(tmp_path / "policy.pt", network, "h1", "none", {"seed": 0})
     loaded, meta = load_checkpoint(path)
-    assert meta["embodiment"] == "h1" and meta["hands"] == "none" and meta["training"] == {"seed": 0}
+    assert meta["embodiment"] == "h1" and meta["hands"] == "none" and meta["meta"] == {"seed": 0}
+    assert meta["kind"] == "policy" and meta["latent"]["size"] == 4
     observation = torch.randn(5, 7)
     latents = {"hip": torch.randn(5, 2), "knee": torch.randn(5, 4)}
     assert torch.allclose(loaded(observation, latents), network(observation, latents))

@@ -1,0 +1,460 @@
+"""The behavior-primitive trainer: PPO against per-part-group style
+discriminators and latent encoders (DAIL), with AMP, ASE and PMP as
+configurations of the same code (`config.preset`).
+
+One iteration:
+
+1. `collect`: `ppo.horizon` control steps of every environment of the
+   vector environment with the Gaussian policy, each part group's latent
+   resampled on its own timer; the AMP window of every group after every
+   step is kept (an ended episode's last window where it ended).
+2. `rewards`: per group, the style reward of the window (`style.style_reward`)
+   and, with latents, the encoder's reward; each combined over the groups
+   (`style.combine_rewards`: a product for DAIL) and weighted.
+3. `update`: GAE and PPO epochs (with ASE's diversity loss when there are
+   latents); then the discriminators and encoders (eq. 1 with gradient
+   penalty on demonstration windows, logit regularisation, weight decay;
+   policy windows half from this iteration, half from a replay buffer);
+   then the running normalisers.
+
+The agent sees the robot only through the vector environment (gymnasium)
+and the `Demonstrations` arrays; `state_dict` holds everything a resumed
+run needs.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+
+import numpy as np
+import torch
+from torch import nn
+
+from hotu_drake.learning.buffers import ReplayBuffer, Rollout
+from hotu_drake.learning.config import TrainConfig
+from hotu_drake.learning.demonstrations import Demonstrations
+from hotu_drake.learning.latents import LatentSchedule, sample_sphere
+from hotu_drake.learning.models import ActorCritic, StyleNetwork
+from hotu_drake.learning.parts import PartGroup, resolve_groups
+from hotu_drake.learning.policy import PolicyConfig
+from hotu_drake.learning.ppo import PPO, PPOBatch, gae
+from hotu_drake.learning.style import (
+    combine_rewards,
+    discriminator_loss,
+    diversity_loss,
+    encoder_loss,
+    encoder_reward,
+    style_reward,
+)
+
+
+class Agent:
+    """Trains a policy on `envs` (a gymnasium vector environment whose
+    `info["amp"]` is laid out as `demonstrations.layout`)."""
+
+    def __init__(
+        self,
+        config: TrainConfig,
+        envs,
+        demonstrations: Demonstrations,
+        action_offset: np.ndarray | None = None,
+        seed: int = 0,
+    ):
+        self.config = config.validate()
+        torch.manual_seed(seed)
+        self.envs, self.demos = envs, demonstrations
+        self.num_envs = envs.num_envs
+        self.rng = np.random.default_rng(seed)
+        self.generator = torch.Generator().manual_seed(seed)
+        style = config.style
+        self.groups: list[PartGroup] = resolve_groups(demonstrations.layout, style.grouping, style.groups or None)
+        if style.combine == "single" and len(self.groups) != 1:
+            raise ValueError(f"combine 'single' needs one part group, the grouping gives {len(self.groups)}")
+        self.group_motions = {
+            g.name: style.group_motions.get(g.name) or list(demonstrations.motions) for g in self.groups
+        }
+        for name, motions in self.group_motions.items():
+            demonstrations.check_motions(motions, f"style.group_motions[{name}]")
+        observation_size = envs.single_observation_space.shape[0]
+        action_size = envs.single_action_space.shape[0]
+        latent = config.latent
+        latent_sizes = {g.name: latent.size for g in self.groups} if latent.size else {}
+        offset = () if action_offset is None else tuple(float(a) for a in action_offset)
+        policy_config = PolicyConfig(
+            observation_size,
+            action_size,
+            latent_sizes,
+            config.networks.policy_hidden,
+            offset,
+            config.action.residual_scale,
+        )
+        self.model = ActorCritic(
+            policy_config, config.networks.critic_hidden, config.action.std, config.action.learn_std
+        )
+        history = demonstrations.history
+        self.style = nn.ModuleDict(
+            {
+                g.name: StyleNetwork(history * g.frame_size, config.networks.discriminator_hidden, latent.size)
+                for g in self.groups
+            }
+        )
+        self.ppo = PPO(self.model, config.ppo)
+        self.style_optimizer = torch.optim.Adam(self.style.parameters(), lr=style.learning_rate)
+        self.replay = {g.name: ReplayBuffer(style.replay_size, (history, g.frame_size)) for g in self.groups}
+        self.latents = LatentSchedule(
+            list(latent_sizes), latent.size, self.num_envs, latent.resample_min, latent.resample_max, self.rng
+        )
+        self.counters = {"iteration": 0, "samples": 0, "episodes": 0, "falls": 0, "seconds": 0.0, "warm_started": False}
+        self.episode_lengths: deque = deque(maxlen=200)
+        self._reset_envs()
+
+    # -- environments ------------------------------------------------------------
+
+    def _reset_envs(self) -> None:
+        """Start every environment afresh (also after a resume)."""
+        seed = int(self.rng.integers(2**31))
+        self._observations, info = self.envs.reset(seed=seed)
+        self._low_style = np.zeros(self.num_envs, dtype=np.int64)
+        self._steps = np.zeros(self.num_envs, dtype=np.int64)
+
+    def group_windows(self, amp: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Each group's windows from an `info["amp"]` batch (N, K, d_key)."""
+        return {g.name: g.gather(amp).astype(np.float32) for g in self.groups}
+
+    # -- policy ------------------------------------------------------------------
+
+    def _latent_tensors(self, latents: dict[str, np.ndarray]) -> dict[str, torch.Tensor]:
+        return {g: torch.as_tensor(z) for g, z in latents.items()}
+
+    def act(self, observations: np.ndarray, latents: dict[str, np.ndarray], deterministic: bool = False):
+        """Actions (and their log-probabilities) for a batch."""
+        with torch.no_grad():
+            obs = torch.as_tensor(observations, dtype=torch.float32)
+            mean = self.model.policy.mean(obs, self._latent_tensors(latents))
+            if deterministic:
+                return mean.clamp(-1.0, 1.0).numpy(), None
+            std = self.model.log_std.exp()
+            action = mean + std * torch.randn(mean.shape, generator=self.generator)
+            log_prob = torch.distributions.Normal(mean, std).log_prob(action).sum(-1)
+        return action.numpy(), log_prob.numpy()
+
+    def values(self, observations: np.ndarray, latents: dict[str, np.ndarray]) -> np.ndarray:
+        """The critic's values in reward units, for (..., obs) observations."""
+        with torch.no_grad():
+            obs = torch.as_tensor(observations, dtype=torch.float32)
+            flat = obs.reshape(-1, obs.shape[-1])
+            lat = {g: torch.as_tensor(z).reshape(flat.shape[0], -1) for g, z in latents.items()}
+            value = self.model.value_normalizer.denormalize(self.model.value(flat, lat)[:, None])[:, 0]
+        return value.numpy().reshape(obs.shape[:-1])
+
+    # -- rewards -----------------------------------------------------------------
+
+    def group_style_rewards(self, windows: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Each group's style reward in [0, 1] of windows (..., K, d)."""
+        out = {}
+        with torch.no_grad():
+            for g in self.groups:
+                x = torch.as_tensor(windows[g.name])
+                network = self.style[g.name]
+                out[g.name] = style_reward(network.logit(network.normalize(x)), self.config.style.reward).numpy()
+        return out
+
+    def group_encoder_rewards(
+        self, windows: dict[str, np.ndarray], latents: dict[str, np.ndarray]
+    ) -> dict[str, np.ndarray]:
+        out = {}
+        with torch.no_grad():
+            for g in latents:
+                network = self.style[g]
+                estimate = network.encode(network.normalize(torch.as_tensor(windows[g])))
+                out[g] = encoder_reward(
+                    estimate, torch.as_tensor(latents[g]), self.config.latent.encoder_reward
+                ).numpy()
+        return out
+
+    def combine(self, per_group: dict[str, np.ndarray]) -> np.ndarray:
+        stacked = torch.as_tensor(np.stack([per_group[g] for g in per_group]))
+        return combine_rewards(stacked, self.config.style.combine).numpy()
+
+    def rewards(self, rollout: Rollout) -> dict[str, np.ndarray]:
+        """`total` (T, N) and its pieces: `style`, `encoder`, and per group."""
+        style = self.group_style_rewards(rollout.windows)
+        out = {"style": self.combine(style), **{f"style/{g}": r for g, r in style.items()}}
+        total = self.config.style.weight * out["style"]
+        if rollout.latents:
+            encoder = self.group_encoder_rewards(rollout.windows, rollout.latents)
+            out["encoder"] = self.combine(encoder)
+            out |= {f"encoder/{g}": r for g, r in encoder.items()}
+            total = total + self.config.latent.encoder_weight * out["encoder"]
+        out["total"] = total.astype(np.float32)
+        return out
+
+    # -- one iteration -------------------------------------------------------------
+
+    def collect(self) -> Rollout:
+        """`ppo.horizon` steps of every environment."""
+        T, N = self.config.ppo.horizon, self.num_envs
+        env_config = self.config.environment
+        obs_size = self._observations.shape[1]
+        observations = np.zeros((T, N, obs_size), np.float32)
+        next_observations = np.zeros((T, N, obs_size), np.float32)
+        actions = np.zeros((T, N, self.envs.single_action_space.shape[0]), np.float32)
+        log_probs = np.zeros((T, N), np.float32)
+        terminated = np.zeros((T, N), bool)
+        ended = np.zeros((T, N), bool)
+        style_terminated = np.zeros((T, N), bool)
+        latents = {g: np.zeros((T, N, self.latents.size), np.float32) for g in self.latents.groups}
+        windows = {g.name: np.zeros((T, N, self.demos.history, g.frame_size), np.float32) for g in self.groups}
+        for t in range(T):
+            current = self.latents.current()
+            observations[t] = self._observations
+            for g, z in current.items():
+                latents[g][t] = z
+            action, log_prob = self.act(self._observations, current)
+            actions[t], log_probs[t] = action, log_prob
+            observation, _, term, trunc, info = self.envs.step(action)
+            done = term | trunc
+            after = observation.copy()
+            amp = {key: np.array(v) for key, v in info["amp"].items() if not key.startswith("_")}
+            for i in np.flatnonzero(done):  # same-step reset: the ended episode's last frames
+                after[i] = info["final_obs"][i]
+                for key in amp:
+                    amp[key][i] = info["final_info"]["amp"][key][i]
+            step_windows = self.group_windows(amp)
+            for g, w in step_windows.items():
+                windows[g][t] = w
+            if env_config.style_termination > 0:
+                low = self.combine(self.group_style_rewards(step_windows)) < env_config.style_termination
+                self._low_style = np.where(low & ~done, self._low_style + 1, 0)
+                cut = self._low_style >= env_config.style_patience
+                if cut.any():
+                    observation = self._reset_some(cut, observation)
+                    style_terminated[t] = cut
+                    term = term | cut
+                    done = done | cut
+                    self._low_style[cut] = 0
+            next_observations[t] = after
+            terminated[t], ended[t] = term, done
+            self._bookkeeping(term, done)
+            self._observations = observation
+            self.latents.step(done)
+        values = self.values(observations, latents)
+        next_values = self.values(next_observations, latents)
+        return Rollout(
+            observations, latents, actions, log_probs, values, next_values, terminated, ended, windows, style_terminated
+        )
+
+    def _reset_some(self, mask: np.ndarray, observation: np.ndarray) -> np.ndarray:
+        """Reset the environments in `mask` (the style-reward rule ended their episodes)."""
+        fresh, _ = self.envs.reset(options={"reset_mask": mask})
+        observation = observation.copy()
+        observation[mask] = fresh[mask]
+        return observation
+
+    def _bookkeeping(self, terminated: np.ndarray, ended: np.ndarray) -> None:
+        self._steps += 1
+        for i in np.flatnonzero(ended):
+            self.episode_lengths.append(int(self._steps[i]))
+        self.counters["episodes"] += int(ended.sum())
+        self.counters["falls"] += int(terminated.sum())
+        self._steps[ended] = 0
+
+    def update(self, rollout: Rollout, rewards: dict[str, np.ndarray]) -> dict[str, float]:
+        """PPO on the rollout, then the style networks, then the normalisers."""
+        c = self.config
+        advantages = gae(
+            rewards["total"],
+            rollout.values,
+            rollout.next_values,
+            rollout.terminated,
+            rollout.ended,
+            c.ppo.gamma,
+            c.ppo.lam,
+        )
+        returns = advantages + rollout.values
+        model = self.model
+        flat = rollout.observations.reshape(-1, rollout.observations.shape[-1])
+        if c.ppo.normalize_value:
+            model.value_normalizer.update(torch.as_tensor(returns.reshape(-1, 1)))
+        to_normal = model.value_normalizer
+        batch = PPOBatch(
+            observations=torch.as_tensor(flat),
+            latents={g: torch.as_tensor(z.reshape(len(flat), -1)) for g, z in rollout.latents.items()},
+            actions=torch.as_tensor(rollout.actions.reshape(len(flat), -1)),
+            log_probs=torch.as_tensor(rollout.log_probs.reshape(-1)),
+            values=to_normal(torch.as_tensor(rollout.values.reshape(-1, 1)))[:, 0],
+            returns=to_normal(torch.as_tensor(returns.reshape(-1, 1)))[:, 0],
+            advantages=torch.as_tensor(advantages.reshape(-1)),
+        )
+        stats = self.ppo.update(batch, self.generator, self._diversity if rollout.latents else None)
+        stats |= self._update_style(rollout)
+        model.policy.normalizer.update(torch.as_tensor(flat))
+        return stats
+
+    def _diversity(self, mb: PPOBatch, mean: torch.Tensor) -> dict[str, torch.Tensor]:
+        weight = self.config.latent.diversity_weight
+        if weight <= 0:
+            return {}
+        n, size = mean.shape[0], self.config.latent.size
+        other = {g: torch.as_tensor(sample_sphere(self.rng, n, size)) for g in mb.latents}
+        other_mean = self.model.policy.mean(mb.observations, other)
+        return {"diversity_loss": weight * diversity_loss(mean, other_mean, mb.latents, other)}
+
+    def _update_style(self, rollout: Rollout) -> dict[str, float]:
+        s = self.config.style
+        batch = s.batch_size
+        stats: dict[str, float] = {}
+        current = {g.name: rollout.windows[g.name].reshape(-1, *rollout.windows[g.name].shape[2:]) for g in self.groups}
+        latents = {g: z.reshape(-1, z.shape[-1]) for g, z in rollout.latents.items()}
+        for g in self.groups:  # the input statistics: this iteration's policy windows and as many demonstrations
+            demo = self.demos.sample_windows(g, len(current[g.name]), self.rng, self.group_motions[g.name])
+            network = self.style[g.name]
+            network.normalizer.update(
+                torch.as_tensor(np.concatenate([demo, current[g.name]]).reshape(-1, network.normalizer.mean.numel()))
+            )
+        for _ in range(s.updates):
+            loss = torch.zeros(())
+            for g in self.groups:
+                network, name = self.style[g.name], g.name
+                demo = self.demos.sample_windows(g, batch, self.rng, self.group_motions[name])
+                index = self.rng.integers(0, len(current[name]), batch)
+                fresh = current[name][index]
+                replay = self.replay[name]
+                policy = (
+                    fresh
+                    if replay.size == 0
+                    else np.concatenate([fresh[: batch // 2], replay.sample(batch - batch // 2, self.rng)])
+                )
+                demo_in = network.normalize(torch.as_tensor(demo))
+                policy_in = network.normalize(torch.as_tensor(policy))
+                group_loss, group_stats = discriminator_loss(
+                    network, demo_in, policy_in, s.grad_penalty, s.logit_regularization, s.weight_decay
+                )
+                if latents:
+                    encoder = encoder_loss(
+                        network, network.normalize(torch.as_tensor(fresh)), torch.as_tensor(latents[name][index])
+                    )
+                    group_loss = group_loss + encoder
+                    group_stats["encoder_loss"] = float(encoder.detach())
+                loss = loss + group_loss
+                for k, v in group_stats.items():
+                    key = f"discriminator/{name}/{k}"
+                    stats[key] = stats.get(key, 0.0) + v / s.updates
+            if s.updates:
+                self.style_optimizer.zero_grad()
+                loss.backward()
+                self.style_optimizer.step()
+        for g in self.groups:
+            windows = current[g.name]
+            keep = self.rng.random(len(windows)) < s.replay_keep
+            self.replay[g.name].add(windows[keep])
+        return stats
+
+    def iteration(self) -> dict[str, float]:
+        """Collect, reward, update; the iteration's statistics."""
+        start = time.perf_counter()
+        self.model.eval()
+        rollout = self.collect()
+        collected = time.perf_counter()
+        rewards = self.rewards(rollout)
+        self.model.train()
+        stats = self.update(rollout, rewards)
+        end = time.perf_counter()
+        self.counters["iteration"] += 1
+        self.counters["samples"] += rollout.num_samples
+        self.counters["seconds"] += end - start
+        stats |= {
+            "samples": self.counters["samples"],
+            "rollout_seconds": collected - start,
+            "update_seconds": end - collected,
+            "learner_share": (end - collected) / (end - start),
+            "samples_per_second": rollout.num_samples / (end - start),
+            "reward": float(rewards["total"].mean()),
+            "falls": int(rollout.terminated.sum() - rollout.style_terminated.sum()),
+            "style_terminations": int(rollout.style_terminated.sum()),
+            "episode_length": float(np.mean(self.episode_lengths)) if self.episode_lengths else float("nan"),
+        }
+        stats |= {key: float(value.mean()) for key, value in rewards.items() if key != "total"}
+        return stats
+
+    # -- warm start ----------------------------------------------------------------
+
+    def warm_start(self) -> dict[str, float]:
+        """Behavior cloning: the policy's mean regressed on the reference clips'
+        actions at their own states (latents drawn from the prior)."""
+        w = self.config.warm_start
+        observations, actions = self.demos.behavior_cloning_pairs()
+        policy = self.model.policy
+        policy.normalizer.update(torch.as_tensor(observations))
+        if w.epochs == 0 or len(observations) == 0:
+            self.counters["warm_started"] = True
+            return {}
+        optimizer = torch.optim.Adam(policy.parameters(), lr=w.learning_rate)
+        obs, target = torch.as_tensor(observations), torch.as_tensor(actions)
+        losses = []
+        for _ in range(w.epochs):
+            order = torch.randperm(len(obs), generator=self.generator)
+            for start in range(0, len(obs), w.batch_size):
+                index = order[start : start + w.batch_size]
+                latents = {
+                    g: torch.as_tensor(sample_sphere(self.rng, len(index), size))
+                    for g, size in policy.config.latent_sizes.items()
+                }
+                loss = (policy.mean(obs[index], latents) - target[index]).square().mean()
+                optimizer.zero_grad()
+                loss.backward()
+                optimizer.step()
+                losses.append(loss.item())
+        self.counters["warm_started"] = True
+        return {"warm_start/first_loss": losses[0], "warm_start/last_loss": losses[-1]}
+
+    # -- state -----------------------------------------------------------------------
+
+    def state_dict(self) -> dict:
+        return {
+            "model": self.model.state_dict(),
+            "style": self.style.state_dict(),
+            "actor_optimizer": self.ppo.actor_optimizer.state_dict(),
+            "critic_optimizer": self.ppo.critic_optimizer.state_dict(),
+            "style_optimizer": self.style_optimizer.state_dict(),
+            "replay": {g: {k: _tensor(v) for k, v in b.state_dict().items()} for g, b in self.replay.items()},
+            "latents": _tensors(self.latents.state_dict()),
+            "numpy_rng": self.rng.bit_generator.state,
+            "torch_generator": self.generator.get_state(),
+            "torch_rng": torch.get_rng_state(),
+            "counters": dict(self.counters),
+            "episode_lengths": list(self.episode_lengths),
+        }
+
+    def load_state_dict(self, state: dict) -> None:
+        self.model.load_state_dict(state["model"])
+        self.style.load_state_dict(state["style"])
+        self.ppo.actor_optimizer.load_state_dict(state["actor_optimizer"])
+        self.ppo.critic_optimizer.load_state_dict(state["critic_optimizer"])
+        self.style_optimizer.load_state_dict(state["style_optimizer"])
+        for g, b in self.replay.items():
+            b.load_state_dict({k: _array(v) for k, v in state["replay"][g].items()})
+        self.latents.load_state_dict(_arrays(state["latents"]))
+        self.rng.bit_generator.state = state["numpy_rng"]
+        self.generator.set_state(state["torch_generator"])
+        torch.set_rng_state(state["torch_rng"])
+        self.counters = dict(state["counters"])
+        self.episode_lengths = deque(state["episode_lengths"], maxlen=200)
+        self._reset_envs()
+
+
+def _tensor(value):
+    return torch.as_tensor(value) if isinstance(value, np.ndarray) else value
+
+
+def _array(value):
+    return value.numpy() if isinstance(value, torch.Tensor) else value
+
+
+def _tensors(tree: dict) -> dict:
+    return {k: _tensors(v) if isinstance(v, dict) else _tensor(v) for k, v in tree.items()}
+
+
+def _arrays(tree: dict) -> dict:
+    return {k: _arrays(v) if isinstance(v, dict) else _array(v) for k, v in tree.items()}

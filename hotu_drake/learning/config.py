@@ -1,0 +1,259 @@
+"""Training configuration: one dataclass per concern, presets per algorithm, YAML.
+
+`TrainConfig` holds everything a run needs besides the robot and the
+motions. `preset(algo)` gives the default for `dail`, `amp`, `ase` or `pmp`:
+the four share every network size, sample count and PPO setting, and
+differ only in how the style is judged (`StyleConfig.grouping`,
+`StyleConfig.combine`) and whether there are latents (`LatentConfig.size`).
+A YAML file overrides any field (`load_config`); unknown or mistyped fields
+are an `InputError` naming the file and the field.
+
+The defaults are for a CPU with two cores. Where a value was chosen by a
+measurement, the comment says which (RESULTS.md has the runs).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from hotu_drake.errors import InputError, check_choice, check_number
+
+ALGORITHMS = ("dail", "amp", "ase", "pmp")
+GROUPINGS = ("default", "table", "whole")
+COMBINATIONS = ("product", "mean", "single")
+STYLE_REWARDS = ("amp", "log")
+ENCODER_REWARDS = ("clipped", "shifted")
+
+
+@dataclass
+class PPOConfig:
+    """Proximal policy optimisation (clipped surrogate, GAE)."""
+
+    horizon: int = 256  # control steps per environment per iteration
+    gamma: float = 0.95  # 0.99 in the GPU references; shorter credit on a CPU budget
+    lam: float = 0.95
+    clip: float = 0.2
+    epochs: int = 4
+    minibatch_size: int = 256
+    learning_rate: float = 3e-4
+    critic_learning_rate: float = 1e-3
+    value_coefficient: float = 1.0
+    clip_value: bool = True
+    normalize_value: bool = True
+    bound_coefficient: float = 10.0  # pushes the mean action back inside [-1, 1]
+    max_grad_norm: float = 1.0
+    entropy_coefficient: float = 0.0
+
+
+@dataclass
+class ActionConfig:
+    """Actions: the standing pose's action plus `residual_scale` x the
+    network's output, with Gaussian exploration noise of `std`."""
+
+    residual_scale: float = 0.5
+    std: float = 0.1
+    learn_std: bool = False
+
+
+@dataclass
+class NetworkConfig:
+    policy_hidden: tuple[int, ...] = (256, 128)
+    critic_hidden: tuple[int, ...] = (256, 128)
+    discriminator_hidden: tuple[int, ...] = (256, 128)  # [1024, 512] in the GPU references
+
+
+@dataclass
+class StyleConfig:
+    """The style discriminators: one per part group, their losses and rewards."""
+
+    grouping: str = "default"  # default | table | whole, or `groups` below
+    groups: dict[str, list[str]] = field(default_factory=dict)  # name -> selectors ("hip", "shoulder:left")
+    group_motions: dict[str, list[str]] = field(default_factory=dict)  # a group's own clips (partial datasets)
+    combine: str = "product"  # product (DAIL) | mean (PMP) | single (one group: AMP, ASE)
+    reward: str = "amp"  # amp: max(0, 1 - 0.25 (D - 1)^2); log: -log(1 - sigmoid(logit)), bounded
+    weight: float = 1.0
+    learning_rate: float = 1e-4
+    batch_size: int = 256
+    updates: int = 4  # discriminator steps per iteration
+    grad_penalty: float = 5.0
+    logit_regularization: float = 0.01
+    weight_decay: float = 1e-4
+    replay_size: int = 50_000
+    replay_keep: float = 0.1  # the share of each iteration's policy windows kept in the replay buffer
+
+
+@dataclass
+class LatentConfig:
+    """One latent per part group on the unit sphere, and its encoder."""
+
+    size: int = 8  # 64 in the method; 0: no latents (AMP, PMP)
+    resample_min: int = 1  # control steps, resampled every U[min, max)
+    resample_max: int = 150
+    encoder_weight: float = 0.5
+    encoder_reward: str = "shifted"  # clipped: max(0, <z_hat, z>); shifted: (1 + <z_hat, z>) / 2
+    diversity_weight: float = 0.01
+
+
+@dataclass
+class WarmStartConfig:
+    """Behavior cloning of the reference clips' PD targets before PPO."""
+
+    epochs: int = 200
+    learning_rate: float = 1e-3
+    batch_size: int = 256
+
+
+@dataclass
+class EnvironmentConfig:
+    """What the trainer asks of each environment (`Imitation-v0` keywords)."""
+
+    reference_init_probability: float = 0.8
+    termination_height: float = 0.5
+    amp_history: int = 10
+    style_termination: float = 0.0  # end an episode after `style_patience` steps under this reward; 0: off
+    style_patience: int = 10
+
+
+@dataclass
+class TrainConfig:
+    algo: str = "dail"
+    ppo: PPOConfig = field(default_factory=PPOConfig)
+    action: ActionConfig = field(default_factory=ActionConfig)
+    networks: NetworkConfig = field(default_factory=NetworkConfig)
+    style: StyleConfig = field(default_factory=StyleConfig)
+    latent: LatentConfig = field(default_factory=LatentConfig)
+    warm_start: WarmStartConfig = field(default_factory=WarmStartConfig)
+    environment: EnvironmentConfig = field(default_factory=EnvironmentConfig)
+    torch_threads: int = 2
+
+    def validate(self, where: str = "config") -> TrainConfig:
+        check_choice(self.algo, "algo", ALGORITHMS, where)
+        p, s, lat = self.ppo, self.style, self.latent
+        check_number(p.horizon, "ppo.horizon", where, low=1, high=100_000, integer=True)
+        check_number(p.gamma, "ppo.gamma", where, low=0.0, high=1.0)
+        check_number(p.lam, "ppo.lam", where, low=0.0, high=1.0)
+        check_number(p.clip, "ppo.clip", where, low=0.0, high=1.0)
+        check_number(p.epochs, "ppo.epochs", where, low=1, high=1000, integer=True)
+        check_number(p.minibatch_size, "ppo.minibatch_size", where, low=1, high=1_000_000, integer=True)
+        for name in ("learning_rate", "critic_learning_rate"):
+            check_number(getattr(p, name), f"ppo.{name}", where, low=0.0, high=1.0)
+        check_number(self.action.residual_scale, "action.residual_scale", where, low=0.0, high=2.0)
+        check_number(self.action.std, "action.std", where, low=1e-4, high=2.0)
+        check_choice(s.grouping, "style.grouping", GROUPINGS, where)
+        check_choice(s.combine, "style.combine", COMBINATIONS, where)
+        check_choice(s.reward, "style.reward", STYLE_REWARDS, where)
+        check_number(s.batch_size, "style.batch_size", where, low=1, high=1_000_000, integer=True)
+        check_number(s.updates, "style.updates", where, low=0, high=1000, integer=True)
+        check_number(s.replay_keep, "style.replay_keep", where, low=0.0, high=1.0)
+        check_number(lat.size, "latent.size", where, low=0, high=1024, integer=True)
+        check_number(lat.resample_min, "latent.resample_min", where, low=1, high=100_000, integer=True)
+        check_number(
+            lat.resample_max, "latent.resample_max", where, low=lat.resample_min + 1, high=100_001, integer=True
+        )
+        check_choice(lat.encoder_reward, "latent.encoder_reward", ENCODER_REWARDS, where)
+        check_number(self.warm_start.epochs, "warm_start.epochs", where, low=0, high=100_000, integer=True)
+        env = self.environment
+        check_number(env.amp_history, "environment.amp_history", where, low=1, high=300, integer=True)
+        check_number(env.style_termination, "environment.style_termination", where, low=0.0, high=1.0)
+        check_number(env.style_patience, "environment.style_patience", where, low=1, high=10_000, integer=True)
+        check_number(self.torch_threads, "torch_threads", where, low=1, high=256, integer=True)
+        for name, selectors in s.groups.items():
+            if not isinstance(selectors, list) or not all(isinstance(x, str) for x in selectors):
+                raise InputError(f"group {name!r} must be a list of part selectors", where, "style.groups")
+        return self
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+def preset(algo: str) -> TrainConfig:
+    """The configuration of `algo` (dail, amp, ase or pmp) with every shared default."""
+    check_choice(algo, "algo", ALGORITHMS, "--algo")
+    config = TrainConfig(algo=algo)
+    if algo == "dail":  # per-part discriminators and encoders, rewards multiplied
+        config.style.grouping, config.style.combine = "default", "product"
+    elif algo == "pmp":  # per-part discriminators, rewards averaged, no latent
+        config.style.grouping, config.style.combine = "default", "mean"
+        config.latent.size = 0
+    elif algo == "amp":  # one whole-body discriminator, no latent
+        config.style.grouping, config.style.combine = "whole", "single"
+        config.latent.size = 0
+    elif algo == "ase":  # one whole-body discriminator with an encoder and a latent
+        config.style.grouping, config.style.combine = "whole", "single"
+    return config
+
+
+def config_from_dict(data: dict, base: TrainConfig | None = None, where: str = "config") -> TrainConfig:
+    """`base` (default: the preset of `data['algo']`, else DAIL) with `data`'s fields over it."""
+    if not isinstance(data, dict):
+        raise InputError("a training configuration must be a mapping of sections", where)
+    config = base or preset(data.get("algo", "dail"))
+    _merge(config, data, where, "")
+    return config.validate(where)
+
+
+def load_config(path: str | Path, algo: str | None = None) -> TrainConfig:
+    """The preset of `algo` (or of the file's `algo`) overridden by the YAML file at `path`."""
+    path = Path(path)
+    try:
+        data = yaml.safe_load(path.read_text()) or {}
+    except OSError as error:
+        raise InputError(f"cannot read it ({error.strerror})", str(path)) from None
+    except yaml.YAMLError as error:
+        raise InputError(f"not valid YAML ({str(error).splitlines()[0]})", str(path)) from None
+    if not isinstance(data, dict):
+        raise InputError("a training configuration must be a mapping of sections", str(path))
+    chosen = algo or data.get("algo", "dail")
+    if algo and data.get("algo", algo) != algo:
+        raise InputError(f"the file says algo {data['algo']!r}, the command line {algo!r}", str(path), "algo")
+    return config_from_dict({**data, "algo": chosen}, preset(chosen), str(path))
+
+
+def _merge(target: Any, data: dict, where: str, prefix: str) -> None:
+    fields = {f.name: f for f in dataclasses.fields(target)}
+    for key, value in data.items():
+        name = f"{prefix}{key}"
+        if key not in fields:
+            known = ", ".join(fields)
+            raise InputError(f"unknown field {name!r} (known here: {known})", where, name)
+        current = getattr(target, key)
+        if dataclasses.is_dataclass(current):
+            if not isinstance(value, dict):
+                raise InputError(f"{name!r} must be a mapping", where, name)
+            _merge(current, value, where, f"{name}.")
+        else:
+            setattr(target, key, _typed(value, current, where, name))
+
+
+def _typed(value: Any, current: Any, where: str, name: str) -> Any:
+    """`value` as the type of the field's default (tuples from lists, ints as floats)."""
+    if isinstance(current, bool):
+        if not isinstance(value, bool):
+            raise InputError(f"{name!r} must be true or false, not {value!r}", where, name)
+        return value
+    if isinstance(current, float):
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise InputError(f"{name!r} must be a number, not {value!r}", where, name)
+        return float(value)
+    if isinstance(current, int):
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise InputError(f"{name!r} must be a whole number, not {value!r}", where, name)
+        return value
+    if isinstance(current, str):
+        if not isinstance(value, str):
+            raise InputError(f"{name!r} must be text, not {value!r}", where, name)
+        return value
+    if isinstance(current, tuple):
+        if not isinstance(value, list | tuple) or not all(isinstance(v, int) and v > 0 for v in value):
+            raise InputError(f"{name!r} must be a list of positive whole numbers", where, name)
+        return tuple(value)
+    if isinstance(current, dict):
+        if not isinstance(value, dict):
+            raise InputError(f"{name!r} must be a mapping", where, name)
+        return dict(value)
+    return value

@@ -1,0 +1,136 @@
+"""Evaluating a behavior policy: falls, style, and closeness to the references.
+
+`evaluate` runs seeded episodes (each to its end or `max_steps`) with the
+deterministic policy (the mean action), its latents drawn from the prior
+and resampled as in training, and measures:
+
+- `fall_rate`: the share of episodes that ended by a fall;
+- `normalized_return`: the mean per-step style reward in [0, 1], as the
+  trained discriminators judge it (combined over the groups as in training);
+- `joint_distance_deg`: per functional part, the mean over policy frames of
+  the distance (RMS over the part's joints, degrees) to the nearest frame of
+  the run's reference clips: an independent measure of similarity that no
+  network judges;
+- `motions`: per reference motion, the share of policy frames nearest to it
+  (over all joints) and the mean style reward of those frames.
+
+`standing_policy` gives the same figures for a robot that only holds its
+standing pose: the baseline a learned motion must beat.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from hotu_drake.learning.demonstrations import Demonstrations
+from hotu_drake.learning.latents import LatentSchedule
+
+Policy = Callable[[np.ndarray, dict[str, np.ndarray]], np.ndarray]
+
+
+def standing_policy(action: np.ndarray) -> Policy:
+    """A policy that always asks for `action` (the standing pose's)."""
+
+    def act(observations: np.ndarray, latents: dict) -> np.ndarray:
+        return np.tile(np.asarray(action, dtype=np.float32), (len(observations), 1))
+
+    return act
+
+
+def evaluate(
+    envs,
+    policy: Policy,
+    demonstrations: Demonstrations,
+    joint_columns: np.ndarray,
+    style_reward: Callable[[dict[str, np.ndarray]], np.ndarray],
+    episodes: int = 20,
+    seed: int = 0,
+    latent_groups: list[str] | None = None,
+    latent_size: int = 0,
+    resample: tuple[int, int] = (1, 150),
+) -> dict:
+    """The figures of the module docstring over the first `episodes`
+    episodes to end in `envs` (a vector environment, reset with `seed`).
+
+    `joint_columns` are the observation's columns holding the joint
+    positions (in `demonstrations.joint_names` order); `style_reward` maps
+    `info["amp"]` to the combined style reward per environment."""
+    rng = np.random.default_rng(seed)
+    n = envs.num_envs
+    latents = LatentSchedule(latent_groups or [], latent_size, n, resample[0], resample[1], rng)
+    observations, _ = envs.reset(seed=seed)
+    falls, lengths, frames, rewards = 0, [], [], []
+    running_frames: list[list[np.ndarray]] = [[] for _ in range(n)]
+    running_rewards: list[list[float]] = [[] for _ in range(n)]
+    while len(lengths) < episodes:
+        action = policy(observations, latents.current())
+        observations, _, terminated, truncated, info = envs.step(action)
+        done = terminated | truncated
+        amp = {key: np.array(v) for key, v in info["amp"].items() if not key.startswith("_")}
+        after = observations.copy()
+        for i in np.flatnonzero(done):  # the ended episode's last state
+            after[i] = info["final_obs"][i]
+            for key in amp:
+                amp[key][i] = info["final_info"]["amp"][key][i]
+        reward = style_reward(amp)
+        for i in range(n):
+            running_frames[i].append(after[i, joint_columns])
+            running_rewards[i].append(float(reward[i]))
+        for i in np.flatnonzero(done):
+            if len(lengths) < episodes:
+                falls += int(terminated[i])
+                lengths.append(len(running_frames[i]))
+                frames.extend(running_frames[i])
+                rewards.extend(running_rewards[i])
+            running_frames[i], running_rewards[i] = [], []
+        latents.step(done)
+    report = {
+        "episodes": len(lengths),
+        "fall_rate": falls / len(lengths),
+        "mean_episode_steps": float(np.mean(lengths)),
+        "normalized_return": float(np.mean(rewards)),
+        "frames": len(frames),
+    }
+    return report | similarity(np.array(frames), np.array(rewards), demonstrations)
+
+
+def similarity(frames: np.ndarray, rewards: np.ndarray, demonstrations: Demonstrations) -> dict:
+    """Per-part nearest-reference-frame distances (degrees) of policy joint
+    frames, and each motion's share of the frames nearest to it."""
+    names = list(demonstrations.motions)
+    reference = np.concatenate([demonstrations.motions[m].joints for m in names])
+    owner = np.concatenate([np.full(demonstrations.motions[m].num_frames, i) for i, m in enumerate(names)])
+    out: dict = {"joint_distance_deg": {}}
+    for part, joints in demonstrations.part_joints.items():
+        if not joints:
+            continue
+        d = _nearest_distance(frames[:, joints], reference[:, joints])
+        out["joint_distance_deg"][part] = float(np.degrees(d.mean()))
+    everything = np.arange(frames.shape[1])
+    nearest = _nearest_index(frames[:, everything], reference[:, everything])
+    motions = {}
+    for i, name in enumerate(names):
+        mine = owner[nearest] == i
+        motions[name] = {
+            "share_of_frames": float(mine.mean()),
+            "normalized_return": float(rewards[mine].mean()) if mine.any() else None,
+        }
+    out["motions"] = motions
+    out["joint_distance_deg"]["all"] = float(np.degrees(_nearest_distance(frames, reference).mean()))
+    return out
+
+
+def _pairwise(frames: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """RMS joint distance between every frame and every reference frame."""
+    squared = (frames**2).sum(1)[:, None] + (reference**2).sum(1)[None, :] - 2.0 * frames @ reference.T
+    return np.sqrt(np.maximum(squared, 0.0) / frames.shape[1])
+
+
+def _nearest_distance(frames: np.ndarray, reference: np.ndarray, chunk: int = 2048) -> np.ndarray:
+    return np.concatenate([_pairwise(frames[i : i + chunk], reference).min(1) for i in range(0, len(frames), chunk)])
+
+
+def _nearest_index(frames: np.ndarray, reference: np.ndarray, chunk: int = 2048) -> np.ndarray:
+    return np.concatenate([_pairwise(frames[i : i + chunk], reference).argmin(1) for i in range(0, len(frames), chunk)])

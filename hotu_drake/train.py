@@ -1,0 +1,329 @@
+"""Train behavior primitives, and evaluate them.
+
+    python -m hotu_drake.train pretrain --robot h1 --hands none --motions wave,boxing,handshake \\
+        --algo dail --steps 2000000 --workers 2 --out runs/h1_upper
+    python -m hotu_drake.train pretrain --out runs/h1_upper --steps 4000000 --resume
+    python -m hotu_drake.train evaluate runs/h1_upper [--episodes 20]
+
+`pretrain` builds the run's demonstrations from the robot's reference clips
+(on the Drake side, once), starts `--workers` environments
+(`hotu_drake/Imitation-v0`, local processes or Ray actors with `--ray`),
+warm-starts the policy by behavior cloning, and trains (`learning.agent`)
+until `--steps` samples. The run folder gets:
+
+- `checkpoint.pt`: everything to resume (every `--checkpoint-every`
+  iterations, by default about three minutes' worth, and at the end);
+- `policy.pt`: the policy alone, for a scenario's `!PolicyCheckpoint`;
+- `metrics.jsonl` (one line of scalars per iteration; `tb/` too when
+  TensorBoard is installed), `run.json` (the command's settings),
+  `config.yaml` (the training configuration);
+- `report.json`: the evaluation of the end (`evaluate`).
+
+Killed at any point, `--resume` continues from the last checkpoint with the
+same counters, optimiser state and random streams; only the iterations
+after that checkpoint are done again.
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+import sys
+import time
+from datetime import date
+from pathlib import Path
+
+import numpy as np
+import torch
+import yaml
+
+from hotu_drake.cli import ArgumentParser, UserError, run_cli
+from hotu_drake.embodiment import EMBODIMENT_NAMES, HANDS_VARIANTS
+from hotu_drake.errors import check_choice, check_number
+from hotu_drake.io import check_output_path, write_text_atomic
+from hotu_drake.learning.checkpoint import read_checkpoint, save_checkpoint
+from hotu_drake.learning.config import ALGORITHMS, TrainConfig, config_from_dict, load_config, preset
+
+ENV_ID = "hotu_drake/Imitation-v0"
+CHECKPOINT_SECONDS = 180.0  # the default checkpoint interval, as wall-clock
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = ArgumentParser(prog="python -m hotu_drake.train", description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    pre = sub.add_parser("pretrain", help="train a behavior controller on reference motions")
+    pre.add_argument("--robot", help=f"the embodiment ({', '.join(EMBODIMENT_NAMES)})")
+    pre.add_argument("--hands", help="full or none (default none)")
+    pre.add_argument("--motions", help="comma-separated library motions and/or .npz clips of the robot")
+    pre.add_argument("--algo", help=f"{' | '.join(ALGORITHMS)} (default dail)")
+    pre.add_argument("--steps", type=int, required=True, help="samples (environment steps) to train for in total")
+    pre.add_argument("--workers", type=int, default=2, help="environment worker processes (default 2)")
+    pre.add_argument(
+        "--ray", metavar="ADDRESS", help="run the workers as Ray actors on this cluster ('auto', host:port)"
+    )
+    pre.add_argument("--out", required=True, help="the run folder (runs/NAME)")
+    pre.add_argument("--config", help="a YAML file overriding the algorithm's preset (learning.config)")
+    pre.add_argument("--seed", type=int, default=0)
+    pre.add_argument("--resume", action="store_true", help="continue the run in --out from its last checkpoint")
+    pre.add_argument("--checkpoint-every", type=int, help="iterations between checkpoints (default: ~3 minutes' worth)")
+    pre.add_argument("--eval-episodes", type=int, default=20, help="evaluation episodes at the end (0: none)")
+    ev = sub.add_parser("evaluate", help="evaluate a run's last checkpoint; writes its report.json")
+    ev.add_argument("run", help="the run folder")
+    ev.add_argument("--episodes", type=int, default=20)
+    ev.add_argument("--seed", type=int, default=1000)
+    ev.add_argument("--workers", type=int, default=2)
+    args = parser.parse_args(argv)
+    if args.command == "pretrain":
+        return pretrain(args)
+    return evaluate_command(args)
+
+
+# -- pretrain ------------------------------------------------------------------------
+
+
+def _settings(args) -> tuple[dict, TrainConfig]:
+    """The run's settings and configuration, from the command line or, on
+    resume, from the run folder (the command line may not contradict them)."""
+    out = Path(args.out)
+    check_number(args.steps, "--steps", low=1, high=10**10, integer=True)
+    check_number(args.workers, "--workers", low=1, high=64, integer=True)
+    check_number(args.seed, "--seed", low=0, high=2**31 - 1, integer=True)
+    check_number(args.eval_episodes, "--eval-episodes", low=0, high=10_000, integer=True)
+    if args.checkpoint_every is not None:
+        check_number(args.checkpoint_every, "--checkpoint-every", low=1, high=10**6, integer=True)
+    if args.resume:
+        if not (out / "checkpoint.pt").is_file() or not (out / "run.json").is_file():
+            raise UserError(f"{out}: no run to resume here (no checkpoint.pt and run.json)")
+        settings = json.loads((out / "run.json").read_text())
+        checkpoint = read_checkpoint(out / "checkpoint.pt", kind="training")
+        for name in ("robot", "hands", "algo"):
+            given = getattr(args, name)
+            if given is not None and given != settings[name]:
+                raise UserError(f"--{name} {given!r}: the run in {out} has {settings[name]!r}")
+        if args.motions is not None and _motions(args.motions) != settings["motions"]:
+            raise UserError(f"--motions: the run in {out} has {','.join(settings['motions'])}")
+        if args.config:
+            raise UserError(f"--config: the run in {out} keeps its configuration (config.yaml)")
+        config = config_from_dict(checkpoint["meta"]["config"], where=str(out / "checkpoint.pt"))
+        return settings, config
+    if (out / "checkpoint.pt").exists() or (out / "run.json").exists():
+        raise UserError(f"{out}: a run is already here (add --resume to continue it, or choose another --out)")
+    check_output_path(out, folder=True)
+    if not args.robot or not args.motions:
+        raise UserError("pretrain needs --robot and --motions (or --resume with --out of a run)")
+    robot = check_choice(args.robot, "--robot", EMBODIMENT_NAMES)
+    hands = check_choice(args.hands or "none", "--hands", HANDS_VARIANTS)
+    algo = check_choice(args.algo or "dail", "--algo", ALGORITHMS)
+    config = load_config(args.config, algo) if args.config else preset(algo)
+    settings = {"robot": robot, "hands": hands, "motions": _motions(args.motions), "algo": algo, "seed": args.seed}
+    return settings, config
+
+
+def _motions(text: str) -> list[str]:
+    """Library names as given, clip paths made absolute (worker processes may start elsewhere)."""
+    motions = [m.strip() for m in text.split(",") if m.strip()]
+    if not motions:
+        raise UserError("--motions: give at least one motion")
+    return [str(Path(m).resolve()) if m.endswith(".npz") else m for m in motions]
+
+
+def _env_options(settings: dict, config: TrainConfig, evaluation: bool = False) -> dict:
+    env = config.environment
+    options = {
+        "robot": settings["robot"],
+        "hands": settings["hands"],
+        "motions": settings["motions"],
+        "amp_history": env.amp_history,
+        "termination_height": env.termination_height,
+        "reference_init_probability": 0.0 if evaluation else env.reference_init_probability,
+    }
+    return options
+
+
+def _demonstrations(settings: dict, config: TrainConfig):
+    """The run's demonstrations and the observation's joint columns (Drake side, once)."""
+    import gymnasium as gym
+
+    import hotu_drake.envs  # noqa: F401 (registers the environments)
+    from hotu_drake.envs.demonstrations import build_demonstrations
+
+    env = gym.make(ENV_ID, **_env_options(settings, config))
+    try:
+        return build_demonstrations(env.unwrapped), env.unwrapped.standing_action()
+    finally:
+        env.close()
+
+
+def _vector_env(settings: dict, config: TrainConfig, workers: int, ray: str | None, evaluation: bool = False):
+    from hotu_drake.learning.rollout import EnvSpec, make_vector_env
+
+    spec = EnvSpec(ENV_ID, _env_options(settings, config, evaluation))
+    return make_vector_env(spec, workers, backend="ray" if ray else "local", address=ray)
+
+
+def pretrain(args) -> int:
+    from hotu_drake.learning.agent import Agent
+    from hotu_drake.learning.logger import MetricsLog, Progress
+
+    settings, config = _settings(args)
+    torch.set_num_threads(config.torch_threads)
+    demos, standing = _demonstrations(settings, config)  # bad motions fail here, before anything is written
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    if not args.resume:
+        write_text_atomic(out / "run.json", json.dumps(settings, indent=2) + "\n")
+        write_text_atomic(out / "config.yaml", yaml.safe_dump(config.to_dict(), sort_keys=False))
+    envs = _vector_env(settings, config, args.workers, args.ray)
+    try:
+        agent = Agent(config, envs, demos, action_offset=standing, seed=settings["seed"])
+        if args.resume:
+            agent.load_state_dict(read_checkpoint(out / "checkpoint.pt", kind="training")["state"])
+            print(
+                f"resumed {out} at iteration {agent.counters['iteration']}, {agent.counters['samples']} samples",
+                file=sys.stderr,
+            )
+        log = MetricsLog(out, agent.counters["iteration"] if args.resume else None)
+        if not agent.counters["warm_started"]:
+            start = time.perf_counter()
+            stats = agent.warm_start()
+            agent.counters["seconds"] += time.perf_counter() - start
+            log.write(0, {**stats, "samples": 0, "warm_start_seconds": time.perf_counter() - start})
+        _train(agent, args, settings, out, log, Progress(args.steps))
+        log.close()
+    finally:
+        envs.close()
+    if args.eval_episodes:
+        report = evaluate_run(out, args.eval_episodes, seed=1000, workers=args.workers)
+        print(json.dumps({k: report[k] for k in ("samples", "wall_clock_seconds")} | _summary(report)), file=sys.stderr)
+    return 0
+
+
+def _train(agent, args, settings: dict, out: Path, log, progress) -> None:
+    every = args.checkpoint_every
+    since = 0
+    while agent.counters["samples"] < args.steps:
+        stats = agent.iteration()
+        iteration = agent.counters["iteration"]
+        log.write(iteration, stats)
+        style = {g.name: stats.get(f"style/{g.name}", float("nan")) for g in agent.groups}
+        progress.update(agent.counters["samples"], stats["samples_per_second"], style)
+        if every is None:  # about CHECKPOINT_SECONDS of iterations, from the first one's pace
+            every = max(1, round(CHECKPOINT_SECONDS / max(stats["rollout_seconds"] + stats["update_seconds"], 1e-3)))
+        since += 1
+        if since >= every:
+            _save(agent, settings, out)
+            since = 0
+    _save(agent, settings, out)
+    progress.update(
+        agent.counters["samples"], agent.counters["samples"] / max(agent.counters["seconds"], 1e-9), {}, done=True
+    )
+
+
+def _save(agent, settings: dict, out: Path) -> None:
+    """The training checkpoint, and the policy alone next to it."""
+    latent = agent.config.latent
+    prior = {"size": latent.size, "resample_min": latent.resample_min, "resample_max": latent.resample_max}
+    meta = {
+        "algo": settings["algo"],
+        "motions": settings["motions"],
+        "seed": settings["seed"],
+        "groups": [g.to_dict() for g in agent.groups],
+        "layout": agent.demos.layout.to_dict(),
+        "samples": agent.counters["samples"],
+        "iteration": agent.counters["iteration"],
+        "config": agent.config.to_dict(),
+    }
+    policy = agent.model.policy
+    robot, hands, rate = settings["robot"], settings["hands"], agent.demos.control_rate
+    save_checkpoint(
+        out / "checkpoint.pt", policy, robot, hands, meta, latent=prior, control_rate=rate, state=agent.state_dict()
+    )
+    save_checkpoint(out / "policy.pt", policy, robot, hands, meta, latent=prior, control_rate=rate)
+
+
+# -- evaluate ------------------------------------------------------------------------
+
+
+def evaluate_command(args) -> int:
+    run = Path(args.run)
+    if not (run / "checkpoint.pt").is_file() or not (run / "run.json").is_file():
+        raise UserError(f"{run}: not a run folder (no checkpoint.pt and run.json)")
+    check_number(args.episodes, "--episodes", low=1, high=10_000, integer=True)
+    check_number(args.workers, "--workers", low=1, high=64, integer=True)
+    report = evaluate_run(run, args.episodes, args.seed, args.workers)
+    print(json.dumps(report, indent=2))
+    return 0
+
+
+def evaluate_run(run: Path, episodes: int, seed: int, workers: int) -> dict:
+    """Evaluate the run's last checkpoint and the standing robot (see
+    `learning.evaluation`); write and return `report.json`."""
+    from hotu_drake.learning.agent import Agent
+    from hotu_drake.learning.evaluation import evaluate, standing_policy
+
+    settings = json.loads((run / "run.json").read_text())
+    checkpoint = read_checkpoint(run / "checkpoint.pt", kind="training")
+    config = config_from_dict(checkpoint["meta"]["config"], where=str(run / "checkpoint.pt"))
+    torch.set_num_threads(config.torch_threads)
+    demos, standing = _demonstrations(settings, config)
+    envs = _vector_env(settings, config, min(workers, episodes), None, evaluation=True)
+    try:
+        agent = Agent(config, envs, demos, action_offset=standing, seed=seed)
+        agent.load_state_dict(checkpoint["state"])
+        columns = np.asarray(demos.meta["joint_columns"])
+
+        def style(amp: dict) -> np.ndarray:
+            return agent.combine(agent.group_style_rewards(agent.group_windows(amp)))
+
+        latent = config.latent
+        groups = list(agent.model.policy.config.latent_sizes)
+        common = {"episodes": episodes, "seed": seed}
+        learned = evaluate(
+            envs,
+            lambda obs, z: agent.act(obs, z, deterministic=True)[0],
+            demos,
+            columns,
+            style,
+            latent_groups=groups,
+            latent_size=latent.size,
+            resample=(latent.resample_min, latent.resample_max),
+            **common,
+        )
+        baseline = evaluate(envs, standing_policy(standing), demos, columns, style, **common)
+    finally:
+        envs.close()
+    report = {
+        **settings,
+        "samples": agent.counters["samples"],
+        "iterations": agent.counters["iteration"],
+        "wall_clock_seconds": round(agent.counters["seconds"], 1),
+        "evaluation": {"policy": learned, "standing": baseline, "episodes": episodes, "seed": seed},
+        "closer_than_standing_deg": {
+            part: round(baseline["joint_distance_deg"][part] - learned["joint_distance_deg"][part], 2)
+            for part in learned["joint_distance_deg"]
+        },
+        "machine": {"cpu_cores": _cores(), "python": platform.python_version(), "date": date.today().isoformat()},
+    }
+    write_text_atomic(run / "report.json", json.dumps(report, indent=2) + "\n")
+    return report
+
+
+def _summary(report: dict) -> dict:
+    policy, standing = report["evaluation"]["policy"], report["evaluation"]["standing"]
+    return {
+        "fall_rate": policy["fall_rate"],
+        "normalized_return": round(policy["normalized_return"], 3),
+        "standing_normalized_return": round(standing["normalized_return"], 3),
+        "joint_distance_deg": round(policy["joint_distance_deg"]["all"], 2),
+        "standing_joint_distance_deg": round(standing["joint_distance_deg"]["all"], 2),
+    }
+
+
+def _cores() -> int:
+    import os
+
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+if __name__ == "__main__":
+    sys.exit(run_cli(main))
