@@ -8,7 +8,9 @@ robots) and writes their side-by-side replays `DIR/walk.html` and
 `DIR/box_carry.html` (the UDH with its fingers, the robots without, to keep
 the pages light) and the clips under `DIR/clips/`. Last, it runs the
 cube-perturbation scenario of each legged robot and writes its Meshcat
-replay `DIR/perturb_<robot>.html`.
+replay `DIR/perturb_<robot>.html`; and runs the learned policies shipped in
+`systems/policies/` (the `learned_<name>` scenarios), writing
+`DIR/learned_<name>.html`.
 """
 
 import sys
@@ -54,6 +56,7 @@ def main(argv: list[str] | None = None) -> int:
         replay = write_replay(out / f"{motion}.html", clips, source)
         print(f"wrote {replay}: {motion} retargeted onto {', '.join(c.embodiment for c in clips)}")
     write_perturbation_replays(out)
+    write_learned_replays(out)
     return 0
 
 
@@ -76,6 +79,26 @@ def write_perturbation_replays(out: Path) -> list[Path]:
         written.append(write_text_atomic(out / f"perturb_{name}.html", meshcat.StaticHtml()))
         outcome = "fell" if figures["fell"] else "stayed up"
         print(f"wrote {written[-1]}: cubes thrown at {name}, which {outcome}")
+    return written
+
+
+def write_learned_replays(out: Path) -> list[Path]:
+    """Run each shipped `learned_<name>` scenario (a policy checkpoint shipped
+    in systems/policies/), recording Meshcat into `DIR/learned_<name>.html`."""
+    from pydrake.geometry import StartMeshcat
+
+    from hotu_drake.io import write_text_atomic
+    from hotu_drake.scenario import load_scenario, shipped_scenarios
+    from hotu_drake.simulate import run
+
+    meshcat = StartMeshcat()
+    written = []
+    for name in sorted(n for n in shipped_scenarios() if n.startswith("learned_")):
+        meshcat.Delete()
+        figures = run(load_scenario(name), meshcat=meshcat)
+        written.append(write_text_atomic(out / f"{name}.html", meshcat.StaticHtml()))
+        outcome = "fell" if figures["fell"] else "stayed up"
+        print(f"wrote {written[-1]}: a learned policy ({name}), which {outcome}")
     return written
 
 

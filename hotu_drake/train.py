@@ -4,6 +4,7 @@
         --algo dail --steps 2000000 --workers 2 --out runs/h1_upper
     python -m hotu_drake.train pretrain --out runs/h1_upper --steps 4000000 --resume
     python -m hotu_drake.train evaluate runs/h1_upper [--episodes 20]
+    python -m hotu_drake.train plot runs/h1_upper runs/h1_upper_amp --out curves.png [--keys style,episode_length]
 
 `pretrain` builds the run's demonstrations from the robot's reference clips
 (on the Drake side, once), starts `--workers` environments
@@ -40,7 +41,7 @@ import yaml
 from hotu_drake.cli import ArgumentParser, UserError, run_cli
 from hotu_drake.embodiment import EMBODIMENT_NAMES, HANDS_VARIANTS
 from hotu_drake.errors import check_choice, check_number
-from hotu_drake.io import check_output_path, write_text_atomic
+from hotu_drake.io import atomic_output, check_output_path, write_text_atomic
 from hotu_drake.learning.checkpoint import read_checkpoint, save_checkpoint
 from hotu_drake.learning.config import ALGORITHMS, TrainConfig, config_from_dict, load_config, preset
 
@@ -57,7 +58,9 @@ def main(argv: list[str] | None = None) -> int:
     pre.add_argument("--motions", help="comma-separated library motions and/or .npz clips of the robot")
     pre.add_argument("--algo", help=f"{' | '.join(ALGORITHMS)} (default dail)")
     pre.add_argument("--steps", type=int, required=True, help="samples (environment steps) to train for in total")
-    pre.add_argument("--workers", type=int, default=2, help="environment worker processes (default 2)")
+    pre.add_argument(
+        "--workers", type=int, help="environment worker processes (default 2; on --resume, the run's own number)"
+    )
     pre.add_argument(
         "--ray", metavar="ADDRESS", help="run the workers as Ray actors on this cluster ('auto', host:port)"
     )
@@ -72,9 +75,16 @@ def main(argv: list[str] | None = None) -> int:
     ev.add_argument("--episodes", type=int, default=20)
     ev.add_argument("--seed", type=int, default=1000)
     ev.add_argument("--workers", type=int, default=2)
+    plot = sub.add_parser("plot", help="learning curves of runs on one figure (needs matplotlib)")
+    plot.add_argument("runs", nargs="+", help="run folders")
+    plot.add_argument("--out", required=True, help="the PNG to write")
+    plot.add_argument("--keys", default="style", help="comma-separated metrics (default: style)")
+    plot.add_argument("--smooth", type=int, default=10, help="moving-average window in iterations (default 10)")
     args = parser.parse_args(argv)
     if args.command == "pretrain":
         return pretrain(args)
+    if args.command == "plot":
+        return plot_command(args)
     return evaluate_command(args)
 
 
@@ -86,7 +96,8 @@ def _settings(args) -> tuple[dict, TrainConfig]:
     resume, from the run folder (the command line may not contradict them)."""
     out = Path(args.out)
     check_number(args.steps, "--steps", low=1, high=10**10, integer=True)
-    check_number(args.workers, "--workers", low=1, high=64, integer=True)
+    if args.workers is not None:
+        check_number(args.workers, "--workers", low=1, high=64, integer=True)
     check_number(args.seed, "--seed", low=0, high=2**31 - 1, integer=True)
     check_number(args.eval_episodes, "--eval-episodes", low=0, high=10_000, integer=True)
     if args.checkpoint_every is not None:
@@ -105,6 +116,7 @@ def _settings(args) -> tuple[dict, TrainConfig]:
         if args.config:
             raise UserError(f"--config: the run in {out} keeps its configuration (config.yaml)")
         config = config_from_dict(checkpoint["meta"]["config"], where=str(out / "checkpoint.pt"))
+        settings["workers"] = args.workers or settings.get("workers", 2)
         return settings, config
     if (out / "checkpoint.pt").exists() or (out / "run.json").exists():
         raise UserError(f"{out}: a run is already here (add --resume to continue it, or choose another --out)")
@@ -115,7 +127,14 @@ def _settings(args) -> tuple[dict, TrainConfig]:
     hands = check_choice(args.hands or "none", "--hands", HANDS_VARIANTS)
     algo = check_choice(args.algo or "dail", "--algo", ALGORITHMS)
     config = load_config(args.config, algo) if args.config else preset(algo)
-    settings = {"robot": robot, "hands": hands, "motions": _motions(args.motions), "algo": algo, "seed": args.seed}
+    settings = {
+        "robot": robot,
+        "hands": hands,
+        "motions": _motions(args.motions),
+        "algo": algo,
+        "seed": args.seed,
+        "workers": args.workers or 2,
+    }
     return settings, config
 
 
@@ -173,7 +192,7 @@ def pretrain(args) -> int:
     if not args.resume:
         write_text_atomic(out / "run.json", json.dumps(settings, indent=2) + "\n")
         write_text_atomic(out / "config.yaml", yaml.safe_dump(config.to_dict(), sort_keys=False))
-    envs = _vector_env(settings, config, args.workers, args.ray)
+    envs = _vector_env(settings, config, settings["workers"], args.ray)
     try:
         agent = Agent(config, envs, demos, action_offset=standing, seed=settings["seed"])
         if args.resume:
@@ -193,7 +212,7 @@ def pretrain(args) -> int:
     finally:
         envs.close()
     if args.eval_episodes:
-        report = evaluate_run(out, args.eval_episodes, seed=1000, workers=args.workers)
+        report = evaluate_run(out, args.eval_episodes, seed=1000, workers=settings["workers"])
         print(json.dumps({k: report[k] for k in ("samples", "wall_clock_seconds")} | _summary(report)), file=sys.stderr)
     return 0
 
@@ -201,6 +220,7 @@ def pretrain(args) -> int:
 def _train(agent, args, settings: dict, out: Path, log, progress) -> None:
     every = args.checkpoint_every
     since = 0
+    style: dict[str, float] = {}
     while agent.counters["samples"] < args.steps:
         stats = agent.iteration()
         iteration = agent.counters["iteration"]
@@ -215,7 +235,7 @@ def _train(agent, args, settings: dict, out: Path, log, progress) -> None:
             since = 0
     _save(agent, settings, out)
     progress.update(
-        agent.counters["samples"], agent.counters["samples"] / max(agent.counters["seconds"], 1e-9), {}, done=True
+        agent.counters["samples"], agent.counters["samples"] / max(agent.counters["seconds"], 1e-9), style, done=True
     )
 
 
@@ -249,7 +269,8 @@ def evaluate_command(args) -> int:
     if not (run / "checkpoint.pt").is_file() or not (run / "run.json").is_file():
         raise UserError(f"{run}: not a run folder (no checkpoint.pt and run.json)")
     check_number(args.episodes, "--episodes", low=1, high=10_000, integer=True)
-    check_number(args.workers, "--workers", low=1, high=64, integer=True)
+    if args.workers is not None:
+        check_number(args.workers, "--workers", low=1, high=64, integer=True)
     report = evaluate_run(run, args.episodes, args.seed, args.workers)
     print(json.dumps(report, indent=2))
     return 0
@@ -306,6 +327,50 @@ def evaluate_run(run: Path, episodes: int, seed: int, workers: int) -> dict:
     }
     write_text_atomic(run / "report.json", json.dumps(report, indent=2) + "\n")
     return report
+
+
+def plot_command(args) -> int:
+    """One panel per metric, one line per run, against samples."""
+    from hotu_drake.learning.logger import read_metrics
+
+    keys = [k.strip() for k in args.keys.split(",") if k.strip()]
+    check_number(args.smooth, "--smooth", low=1, high=10_000, integer=True)
+    out = check_output_path(Path(args.out))
+    curves = {}
+    for run in map(Path, args.runs):
+        if not (run / "metrics.jsonl").is_file():
+            raise UserError(f"{run}: not a run folder (no metrics.jsonl)")
+        rows = [r for r in read_metrics(run / "metrics.jsonl") if "samples_per_second" in r]
+        settings = json.loads((run / "run.json").read_text()) if (run / "run.json").is_file() else {}
+        for key in keys:
+            if not any(key in r for r in rows):
+                raise UserError(f"{run / 'metrics.jsonl'}: no metric {key!r}")
+        curves[f"{run.name} ({settings.get('algo', '?')})"] = rows
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise UserError("plot needs matplotlib (pip install matplotlib)") from None
+    figure, axes = plt.subplots(len(keys), 1, figsize=(7, 3 * len(keys)), squeeze=False)
+    for ax, key in zip(axes[:, 0], keys):
+        for label, rows in curves.items():
+            points = [(r["samples"], r[key]) for r in rows if key in r]
+            x, y = np.array(points).T
+            window = min(args.smooth, len(y))
+            smooth = np.convolve(y, np.ones(window) / window, mode="valid")
+            ax.plot(x[window - 1 :], smooth, label=label)
+        ax.set_xlabel("samples")
+        ax.set_ylabel(key)
+        ax.grid(alpha=0.3)
+        ax.legend()
+    figure.tight_layout()
+    with atomic_output(out) as tmp:
+        figure.savefig(tmp, format="png", dpi=110)
+    plt.close(figure)
+    print(f"wrote {out}", file=sys.stderr)
+    return 0
 
 
 def _summary(report: dict) -> dict:

@@ -781,6 +781,84 @@ for _name, (_module, _argv, _expect) in OTHER_CLI.items():
     case(_name, "cli", _expect)(_make)
 
 
+# --- the trainer ---------------------------------------------------------------------------------
+
+PRETRAIN = ["pretrain", "--robot", "bruce", "--motions", "squat", "--steps", "64", "--workers", "1"]
+TRAIN_CLI = {
+    "robot_unknown": (["pretrain", "--robot", "atlas", "--motions", "wave", "--steps", "10"], "atlas"),
+    "motion_unknown": (["pretrain", "--robot", "bruce", "--motions", "moonwalk", "--steps", "10"], "moonwalk"),
+    "algo_unknown": ([*PRETRAIN, "--algo", "gail"], "gail"),
+    "steps_zero": (["pretrain", "--robot", "bruce", "--motions", "squat", "--steps", "0"], "--steps"),
+    "workers_zero": ([*PRETRAIN, "--workers", "0"], "--workers"),
+    "config_missing": ([*PRETRAIN, "--config", "/nonexistent/tiny.yaml"], "tiny.yaml"),
+}
+for _name, (_argv, _expect) in TRAIN_CLI.items():
+
+    def _make(tmp, argv=_argv):
+        return "hotu_drake.train", [*argv, "--out", str(tmp / "run")]
+
+    case(f"train_{_name}", "cli", _expect)(_make)
+
+
+@case("train_config_unknown_field", "cli", "horizn")
+def _(tmp):
+    config = write(tmp, "tiny.yaml", "ppo: {horizn: 32}\n")
+    return "hotu_drake.train", [*PRETRAIN, "--config", str(config), "--out", str(tmp / "run")]
+
+
+@case("train_config_not_a_number", "cli", "learning_rate")
+def _(tmp):
+    config = write(tmp, "tiny.yaml", "ppo: {learning_rate: fast}\n")
+    return "hotu_drake.train", [*PRETRAIN, "--config", str(config), "--out", str(tmp / "run")]
+
+
+@case("train_resume_nothing", "cli", "no run")
+def _(tmp):
+    return "hotu_drake.train", ["pretrain", "--steps", "10", "--resume", "--out", str(tmp / "run")]
+
+
+def _run_folder(tmp: Path, robot: str, change=None) -> Path:
+    """A run folder whose checkpoint holds a tiny policy (`change` edits its dictionary)."""
+    import torch
+
+    from hotu_drake.learning.checkpoint import save_checkpoint
+    from hotu_drake.learning.policy import PolicyConfig, PolicyNetwork
+
+    run = tmp / "run"
+    run.mkdir()
+    settings = {"robot": robot, "hands": "none", "motions": ["squat"], "algo": "dail", "seed": 0}
+    (run / "run.json").write_text(json.dumps(settings))
+    path = save_checkpoint(run / "checkpoint.pt", PolicyNetwork(PolicyConfig(5, 2, {}, (4,))), robot, "none", {})
+    if change is not None:
+        data = torch.load(path, weights_only=True)
+        change(data)
+        torch.save(data, path)
+    return run
+
+
+@case("train_resume_old_format", "cli", "format version 1")
+def _(tmp):
+    run = _run_folder(tmp, "bruce", lambda d: d.update(format_version=1))
+    return "hotu_drake.train", ["pretrain", "--steps", "10", "--resume", "--out", str(run)]
+
+
+@case("train_resume_policy_checkpoint", "cli", "cannot resume")
+def _(tmp):
+    run = _run_folder(tmp, "bruce")
+    return "hotu_drake.train", ["pretrain", "--steps", "10", "--resume", "--out", str(run)]
+
+
+@case("train_resume_other_robot", "cli", "--robot")
+def _(tmp):
+    run = _run_folder(tmp, "h1", lambda d: d.update(kind="training", state={}))
+    return "hotu_drake.train", ["pretrain", "--robot", "bruce", "--steps", "10", "--resume", "--out", str(run)]
+
+
+@case("train_evaluate_not_a_run", "cli", "not a run folder")
+def _(tmp):
+    return "hotu_drake.train", ["evaluate", str(tmp)]
+
+
 def corpus_summary() -> dict[str, int]:
     """How many cases of each family (the README records it)."""
     families: dict[str, int] = {}

@@ -8,6 +8,8 @@ python -m hotu_drake.bench env      [--robot NAME] [--hands full|none] [--envs N
                                     [--motions M ...] [--backend local|ray] [--fidelity] [--peer mujoco] [--json]
 python -m hotu_drake.bench fidelity [--robot NAME|all] [--rates HZ ...] [--thresholds T ...]
                                     [--reference-rate HZ] [--markdown]
+python -m hotu_drake.bench train    [--robot NAME] [--motions M ...] [--workers N ...] [--iterations K]
+                                    [--algo dail|amp|ase|pmp]
 """
 
 import json
@@ -197,6 +199,28 @@ def _fidelity(args) -> int:
     return 0
 
 
+def _train(args) -> int:
+    from hotu_drake.bench.train import train_throughput
+    from hotu_drake.learning.config import ALGORITHMS
+
+    if args.algo not in ALGORITHMS:
+        raise UserError(f"--algo {args.algo!r}: choose from {', '.join(ALGORITHMS)}")
+    check_number(args.iterations, "--iterations", low=1, high=1000, integer=True)
+    for count in args.workers:
+        check_number(count, "--workers", low=1, high=64, integer=True)
+    results = []
+    for count in args.workers:
+        row = train_throughput(args.robot, args.motions, count, args.iterations, algo=args.algo)
+        print(json.dumps(row), file=sys.stderr, flush=True)
+        results.append(row)
+    one = next((r for r in results if r["workers"] == 1), None)
+    if one is not None:
+        for row in results:
+            row["speedup_over_one_worker"] = round(row["samples_per_second"] / one["samples_per_second"], 2)
+    print(json.dumps({"benchmark": "train", "machine": machine(), "results": results}, indent=2))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = ArgumentParser(prog="python -m hotu_drake.bench", description="Benchmarks that print JSON.")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -238,7 +262,15 @@ def main(argv: list[str] | None = None) -> int:
     fid.add_argument("--reference-rate", type=positive_float, default=1440.0, help="the reference's plant rate (Hz)")
     fid.add_argument("--markdown", action="store_true", help="also print a Markdown table on stderr")
     fid.add_argument("--json", action="store_true", help="accepted for symmetry; output is always JSON")
+    train = sub.add_parser("train", help="training iterations per second with 1 and N workers; the learner's share")
+    train.add_argument("--robot", default="h1", choices=embodiment.EMBODIMENT_NAMES)
+    train.add_argument("--motions", nargs="+", default=["wave", "boxing", "handshake"])
+    train.add_argument("--workers", type=int, nargs="+", default=[1, 2], help="worker counts to measure (default 1 2)")
+    train.add_argument("--iterations", type=int, default=8, help="measured iterations per worker count (default 8)")
+    train.add_argument("--algo", default="dail", help="dail | amp | ase | pmp")
     args = parser.parse_args(argv)
+    if args.command == "train":
+        return _train(args)
     if args.command == "fidelity":
         return _fidelity(args)
     if args.command == "env":

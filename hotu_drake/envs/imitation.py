@@ -17,7 +17,7 @@
 - `motions`: names from the generated library and/or `.npz` clips of the
   embodiment; default the whole library (retargeted once, then cached).
 - The diagram: the environment's own scenario (H1 without fingers on the
-  floor, a 1/180 s plant step, actions at 30 Hz), or `scenario=` (a
+  floor, the default 1/60 s plant step, actions at 30 Hz), or `scenario=` (a
   `Scenario`, a scenario file or a shipped name: its robot, plant and
   objects); `robot`, `hands`, `time_step`, `control_rate` and
   `sampled_output_ports` override either.

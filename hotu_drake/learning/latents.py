@@ -47,5 +47,9 @@ class LatentSchedule:
         return {"latents": self.current(), "countdown": {g: c.copy() for g, c in self.countdown.items()}}
 
     def load_state_dict(self, state: dict) -> None:
-        self.latents = {g: np.asarray(state["latents"][g], dtype=np.float32) for g in self.groups}
+        """The saved latents and timers; fresh ones if the run resumes with another number of environments."""
+        saved = {g: np.asarray(state["latents"][g], dtype=np.float32) for g in self.groups}
+        if any(len(z) != self.num_envs for z in saved.values()):
+            return
+        self.latents = saved
         self.countdown = {g: np.asarray(state["countdown"][g]) for g in self.groups}

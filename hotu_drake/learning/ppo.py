@@ -127,12 +127,12 @@ class PPO:
             kl = ((ratio - 1.0) - log_ratio).mean()
             clip_fraction = ((ratio - 1.0).abs() > c.clip).float().mean()
         stats = {
-            "actor_loss": float(actor_loss),
-            "critic_loss": float(critic_loss),
-            "bound_loss": float(bounds),
-            "entropy": float(entropy),
+            "actor_loss": float(actor_loss.detach()),
+            "critic_loss": float(critic_loss.detach()),
+            "bound_loss": float(bounds.detach()),
+            "entropy": float(entropy.detach()),
             "approx_kl": float(kl),
             "clip_fraction": float(clip_fraction),
         }
-        stats |= {name: float(term) for name, term in extra.items()}
+        stats |= {name: float(term.detach()) for name, term in extra.items()}
         return stats

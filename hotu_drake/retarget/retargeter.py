@@ -27,6 +27,7 @@ from hotu_drake.rotations import heading_rotation, matrix_to_quat
 
 LOCK_STEPS = 2  # leg-IK steps at most per planted foot and frame
 LOCK_TOLERANCE = 0.002  # m: a planted ankle this close to its anchor is left alone
+LEVEL_TOLERANCE = 0.01  # rad: and a planted sole this close to level
 
 
 @dataclass
@@ -331,7 +332,12 @@ class Retargeter:
             height_offset += lift
             pose = pose.translated([0.0, 0.0, lift])
             if self.options.lock_feet:
-                for side in planted:
+                for side in planted:  # a planted sole is flat: level it, and anchor it where it lands
+                    for _ in range(LOCK_STEPS):
+                        if self._tilt(pose, side) < LEVEL_TOLERANCE:
+                            break
+                        self._lock_leg(side, q, pose, None, self._level_foot(pose, side))
+                        pose = self._body_pose(q, root_rotation, root_position)
                     anchors.setdefault(side, self.marks.position(pose, f"{side}_ankle").copy())
                 # The earliest planted foot carries the body: shift the root onto it.
                 first = planted[0]
@@ -339,9 +345,10 @@ class Retargeter:
                 root_position = root_position + [drift[0], drift[1], 0.0]
                 pose = pose.translated([drift[0], drift[1], 0.0])
                 for side in planted:
-                    foot = pose.rotations[self._link_of(f"{side}_toe")] @ self.rest_frames[f"{side}_foot"]
-                    for _ in range(LOCK_STEPS):  # until the ankle is back on its anchor
-                        if np.linalg.norm(self.marks.position(pose, f"{side}_ankle") - anchors[side]) < LOCK_TOLERANCE:
+                    foot = self._level_foot(pose, side)
+                    for _ in range(LOCK_STEPS):  # until the ankle is on its anchor and the sole level
+                        near = np.linalg.norm(self.marks.position(pose, f"{side}_ankle") - anchors[side])
+                        if near < LOCK_TOLERANCE and self._tilt(pose, side) < LEVEL_TOLERANCE:
                             break
                         self._lock_leg(side, q, pose, anchors[side], foot)
                         pose = self._body_pose(q, root_rotation, root_position)
@@ -351,14 +358,24 @@ class Retargeter:
             height_offset -= min(feet)
         return root_position, height_offset
 
+    def _tilt(self, pose, side: str) -> float:
+        """How far (rad) the foot's sole is from level."""
+        rotation = pose.rotations[self._link_of(f"{side}_toe")]
+        return _angle(heading_rotation(rotation), rotation)
+
+    def _level_foot(self, pose, side: str) -> np.ndarray:
+        """The foot frame of a flat sole with the foot's current heading."""
+        return heading_rotation(pose.rotations[self._link_of(f"{side}_toe")]) @ self.rest_frames[f"{side}_foot"]
+
     def _lock_leg(self, side, q, pose, anchor, foot_frame) -> None:
-        """One IK step of the whole leg that brings the ankle back to its anchor,
-        keeping the foot's orientation (`pose` is the current configuration)."""
+        """One IK step of the whole leg that brings the ankle back to its anchor
+        (none: anywhere) with the foot frame `foot_frame` (`pose` is the current
+        configuration)."""
         if side not in self._lock:
             return
         problem, position, orientation = self._lock[side]
         joints = problem.joints
-        rows = [position.rows(self.marks, pose, joints, anchor)]
+        rows = [] if anchor is None else [position.rows(self.marks, pose, joints, anchor)]
         rows.append(orientation.rows(self.marks, pose, joints, foot_frame))
         q[joints] += problem.step(rows, q[joints], q[joints])
 
@@ -471,3 +488,8 @@ def _landmarks_of_embodiment_clip(clip: MotionClip) -> dict[str, np.ndarray]:
         raise ValueError(f"can retarget from a human or UDH clip, not from {clip.embodiment!r}")
     hands = "full" if any(n.endswith("_index_0") for n in clip.joint_names) else "none"
     return udh_landmarks(embodiment.load("udh", hands), clip)
+
+
+def _angle(a: np.ndarray, b: np.ndarray) -> float:
+    """The angle (rad) between two rotations."""
+    return float(np.arccos(np.clip((np.trace(a @ b.T) - 1.0) / 2.0, -1.0, 1.0)))

@@ -1,0 +1,124 @@
+"""`python -m hotu_drake.train` on a real Drake environment (Bruce), with a
+tiny configuration: the run folder, the checkpoint a scenario deploys, and
+resuming after a kill."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from hotu_drake.learning.checkpoint import read_checkpoint
+from hotu_drake.scenario import InitialCondition, PolicyCheckpoint, Scenario
+from hotu_drake.train import main
+
+TINY = """\
+ppo: {horizon: 32, minibatch_size: 32, epochs: 2}
+networks: {policy_hidden: [32, 32], critic_hidden: [32, 32], discriminator_hidden: [32, 32]}
+style: {batch_size: 32, updates: 1, replay_size: 1000}
+latent: {size: 4}
+warm_start: {epochs: 2}
+torch_threads: 1
+"""
+BRUCE = ["--robot", "bruce", "--motions", "squat", "--workers", "1"]
+
+
+@pytest.fixture(scope="module")
+def bruce_run(tmp_path_factory):
+    """A finished tiny run: 128 samples, evaluated on one episode."""
+    folder = tmp_path_factory.mktemp("train")
+    config = folder / "tiny.yaml"
+    config.write_text(TINY)
+    out = folder / "run"
+    argv = ["pretrain", *BRUCE, "--steps", "128", "--out", str(out), "--config", str(config), "--eval-episodes", "1"]
+    assert main(argv) == 0
+    return out
+
+
+def test_a_run_writes_its_folder(bruce_run):
+    names = {p.name for p in bruce_run.iterdir()}
+    assert {"run.json", "config.yaml", "metrics.jsonl", "checkpoint.pt", "policy.pt", "report.json"} <= names
+    lines = [json.loads(line) for line in (bruce_run / "metrics.jsonl").read_text().splitlines()]
+    assert [line["iteration"] for line in lines] == [0, 1, 2, 3, 4]  # the warm start, then 4 x 32 samples
+    assert lines[-1]["samples"] == 128
+    for key in ("style/lower_body", "discriminator/lower_body/accuracy_demo", "approx_kl", "samples_per_second"):
+        assert np.isfinite(lines[-1][key]), key
+    report = json.loads((bruce_run / "report.json").read_text())
+    assert report["samples"] == 128 and report["robot"] == "bruce"
+    policy = report["evaluation"]["policy"]
+    assert 0.0 <= policy["fall_rate"] <= 1.0 and 0.0 <= policy["normalized_return"] <= 1.0
+    assert set(policy["joint_distance_deg"]) >= {"hip", "knee", "all"}
+    checkpoint = read_checkpoint(bruce_run / "checkpoint.pt", kind="training")
+    assert checkpoint["embodiment"] == "bruce" and checkpoint["meta"]["algo"] == "dail"
+    assert {"model", "style", "actor_optimizer", "style_optimizer", "replay", "numpy_rng"} <= set(checkpoint["state"])
+    groups = [g["name"] for g in checkpoint["meta"]["groups"]]
+    assert groups == ["lower_body", "left_arm", "right_arm"]  # Bruce has no torso joint
+
+
+def test_a_scenario_deploys_the_checkpoint_and_it_runs(bruce_run):
+    from hotu_drake.diagrams import build_simulation
+
+    for latents in ("prior", "zero"):
+        scenario = Scenario(
+            embodiment="bruce",
+            driver=PolicyCheckpoint(str(bruce_run / "policy.pt"), latents=latents),
+            initial=InitialCondition(drop_height=0.0),
+            duration=0.5,
+        )
+        sim = build_simulation(scenario)
+        sim.simulator.AdvanceTo(0.5)
+        plant_context = sim.plant.GetMyContextFromRoot(sim.simulator.get_context())
+        assert np.all(np.isfinite(sim.plant.GetPositions(plant_context)))
+
+
+def test_a_run_killed_and_resumed_continues_from_its_last_checkpoint(tmp_path):
+    config = tmp_path / "tiny.yaml"
+    config.write_text(TINY)
+    out = tmp_path / "run"
+    argv = ["pretrain", *BRUCE, "--out", str(out), "--config", str(config), "--eval-episodes", "0"]
+    env = {**os.environ, "PYTHONPATH": os.getcwd()}
+    process = subprocess.Popen(
+        [sys.executable, "-m", "hotu_drake.train", *argv, "--steps", "100000", "--checkpoint-every", "2"],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    try:
+        deadline = time.monotonic() + 240
+        while time.monotonic() < deadline:  # until the second checkpoint (iteration 4) is on disk
+            time.sleep(0.5)
+            if (out / "checkpoint.pt").exists():
+                saved = read_checkpoint(out / "checkpoint.pt", kind="training")["state"]["counters"]
+                if saved["iteration"] >= 4:
+                    break
+        else:
+            pytest.fail("no second checkpoint within 240 s")
+    finally:
+        os.killpg(process.pid, signal.SIGKILL)
+        process.wait()
+    saved = read_checkpoint(out / "checkpoint.pt", kind="training")["state"]
+    done = saved["counters"]["iteration"]
+    steps = saved["counters"]["samples"] + 2 * 32
+    assert main(["pretrain", "--out", str(out), "--steps", str(steps), "--resume", "--eval-episodes", "0"]) == 0
+    resumed = read_checkpoint(out / "checkpoint.pt", kind="training")["state"]
+    assert resumed["counters"]["iteration"] == done + 2 and resumed["counters"]["samples"] == steps
+    assert resumed["counters"]["warm_started"]
+    # The optimiser carried on: Adam's step count is the saved one plus two iterations' updates.
+    step = lambda s: int(s["actor_optimizer"]["state"][0]["step"])  # noqa: E731
+    assert step(resumed) == step(saved) + 2 * 2  # 2 epochs x 1 minibatch per iteration
+    iterations = [json.loads(line)["iteration"] for line in (out / "metrics.jsonl").read_text().splitlines()]
+    assert iterations == list(range(done + 3)), "the log continues without gaps or repeats"
+
+
+def test_a_finished_run_is_not_overwritten(bruce_run, capsys):
+    from hotu_drake.cli import run_cli
+
+    before = (bruce_run / "checkpoint.pt").stat().st_mtime_ns
+    code = run_cli(main, ["pretrain", *BRUCE, "--steps", "64", "--out", str(bruce_run)])
+    assert code == 2 and "a run is already here" in capsys.readouterr().err
+    assert (bruce_run / "checkpoint.pt").stat().st_mtime_ns == before

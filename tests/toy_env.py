@@ -1,0 +1,93 @@
+"""A tiny pure-Python environment with the `info["amp"]` contract, for the
+learning package's tests: no Drake, microseconds a step.
+
+Four velocity-controlled coordinates: two of a "root" and one of each
+"shoulder" (columns `left_a` and `right_a`, so the default grouping makes
+three part groups of it). The demonstration holds each coordinate near its
+own target with a small sway; a new episode starts near zero, so a policy
+must learn to move there and stay to look like the demonstration.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+
+from hotu_drake.learning.demonstrations import Demonstrations, MotionData
+from hotu_drake.learning.parts import AmpLayout
+
+ENV_ID = "tests/ToyAmp-v0"
+CONTROL_RATE = 30.0
+SPEED = 1.0  # coordinate units per second at action 1
+TARGET = np.array([0.6, -0.5, 0.4, -0.7])
+SWAY = 0.05
+LAYOUT = AmpLayout(
+    {
+        "root": ("root:x", "root:y"),
+        "shoulder": ("left_a", "right_a"),
+    }
+)
+
+
+def amp_frame(position: np.ndarray) -> dict[str, np.ndarray]:
+    """Positions only: a window of K frames shows the velocities too."""
+    return {"root": position[:2].astype(np.float32), "shoulder": position[2:].astype(np.float32)}
+
+
+class ToyAmpEnv(gym.Env):
+    def __init__(self, history: int = 4, episode_steps: int = 60):
+        self.history, self.episode_steps = history, episode_steps
+        self.observation_space = gym.spaces.Box(-np.inf, np.inf, (8,), np.float32)
+        self.action_space = gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
+
+    def _observation(self) -> np.ndarray:
+        return np.concatenate([self.position, self.velocity]).astype(np.float32)
+
+    def _info(self) -> dict:
+        return {"amp": {key: np.stack([f[key] for f in self.frames]) for key in LAYOUT.keys}}
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        self.position = self.np_random.uniform(-0.2, 0.2, 4)
+        self.velocity = np.zeros(4)
+        self.steps = 0
+        self.frames = [amp_frame(self.position)] * self.history
+        return self._observation(), self._info()
+
+    def step(self, action):
+        action = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
+        self.velocity = SPEED * action
+        self.position = np.clip(self.position + self.velocity / CONTROL_RATE, -1.5, 1.5)
+        self.steps += 1
+        self.frames = [*self.frames[1:], amp_frame(self.position)]
+        return self._observation(), 0.0, False, self.steps >= self.episode_steps, self._info()
+
+
+gym.register(ENV_ID, entry_point=ToyAmpEnv)
+
+
+def demonstrations(history: int = 4, frames: int = 120) -> Demonstrations:
+    """The reference: every coordinate swaying around its target."""
+    t = np.arange(frames) / CONTROL_RATE
+    phase = np.array([0.0, 1.0, 2.0, 3.0])
+    position = TARGET + SWAY * np.sin(2.0 * np.pi * 0.5 * t[:, None] + phase)
+    velocity = np.gradient(position, 1.0 / CONTROL_RATE, axis=0)
+    amp = {key: np.stack([amp_frame(p)[key] for p in position]) for key in LAYOUT.keys}
+    observations = np.concatenate([position, velocity], axis=1).astype(np.float32)
+    actions = np.clip(velocity / SPEED, -1.0, 1.0).astype(np.float32)
+    return Demonstrations(
+        layout=LAYOUT,
+        motions={"sway": MotionData(amp, observations, actions, position.astype(np.float32))},
+        joint_names=["x", "y", "left_a", "right_a"],
+        part_joints={"hip": [0, 1], "shoulder": [2, 3]},
+        history=history,
+        control_rate=CONTROL_RATE,
+    )
+
+
+def vector_env(num_envs: int = 4, history: int = 4) -> gym.vector.VectorEnv:
+    """In-process copies with the trainer's contract (same-step autoreset)."""
+    return gym.vector.SyncVectorEnv(
+        [lambda: ToyAmpEnv(history) for _ in range(num_envs)],
+        autoreset_mode=gym.vector.AutoresetMode.SAME_STEP,
+    )
