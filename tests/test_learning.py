@@ -268,3 +268,16 @@ def test_a_resumed_agent_continues_with_the_same_counters_and_optimiser_state():
     again.iteration()
     assert again.counters["iteration"] == 2 and again.counters["samples"] == 256
     envs.close()
+
+
+def test_a_low_style_reward_ends_episodes_after_the_patience():
+    config = _tiny()
+    config.environment.style_termination = 0.99  # an untrained judge never gives this much
+    config.environment.style_patience = 5
+    envs = toy_env.vector_env(2)
+    agent = Agent(config, envs, toy_env.demonstrations(), seed=0)
+    rollout = agent.collect()
+    envs.close()
+    assert rollout.style_terminated.sum() > 0
+    assert np.all(rollout.terminated[rollout.style_terminated])  # a cut is an end without bootstrap
+    assert set(agent.episode_lengths) == {5}
