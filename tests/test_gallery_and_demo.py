@@ -29,11 +29,15 @@ def test_demo_prints_the_table_and_writes_the_gallery(tmp_path):
     assert page.stat().st_size > 100_000
     legged = ("bruce", "h1", "naviai", "udh", "walker")
     perturbations = [f"perturb_{robot}.html" for robot in legged]
-    expected = sorted(["box_carry.html", "clips", "gallery.html", "walk.html", *perturbations])
+    learned = ["learned_bruce_squat.html", "learned_h1_upper_body.html"]  # the policies in systems/policies
+    expected = sorted(["box_carry.html", "clips", "gallery.html", "walk.html", *perturbations, *learned])
     assert sorted(p.name for p in tmp_path.iterdir()) == expected
     for name in perturbations:
         assert (tmp_path / name).stat().st_size > 100_000
         assert f"cubes thrown at {name[8:-5]}, which stayed up" in result.stdout
+    for name in learned:
+        assert (tmp_path / name).stat().st_size > 100_000
+        assert f"a learned policy ({name[:-5]}), which stayed up" in result.stdout
     clips = sorted(p.name for p in (tmp_path / "clips").iterdir())
     robots = ("bruce", "curi", "h1", "naviai", "udh", "walker")
     assert clips == sorted(f"{motion}_{robot}.npz" for motion in ("box_carry", "walk") for robot in robots)
