@@ -20,6 +20,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space, concatenate, create_empty_array
 
 from hotu_drake.errors import InputError
+from hotu_drake.learning.workers import reset_request
 
 
 class _EnvWorker:
@@ -68,13 +69,8 @@ class RayVectorEnv(VectorEnv):
 
     def reset(self, *, seed: int | list[int | None] | None = None, options: dict | None = None):
         """Reset every environment, or with `options={"reset_mask": mask}` those where `mask` is true."""
-        options = dict(options or {})
-        mask = np.asarray(options.pop("reset_mask", np.ones(self.num_envs, bool)), dtype=bool)
-        seeds = [None] * self.num_envs if seed is None else seed
-        if isinstance(seeds, int):
-            seeds = [seeds + i for i in range(self.num_envs)]
-        chosen = np.flatnonzero(mask)
-        results = self._ray.get([self.workers[i].reset.remote(seeds[i], options or None) for i in chosen])
+        chosen, seeds, options = reset_request(self.num_envs, seed, options)
+        results = self._ray.get([self.workers[i].reset.remote(seeds[i], options) for i in chosen])
         infos: dict[str, Any] = {}
         observations = list(self._observations)
         for i, (observation, info) in zip(chosen, results):

@@ -26,6 +26,21 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 
+def reset_request(
+    num_envs: int, seed: int | list[int | None] | None, options: dict | None
+) -> tuple[np.ndarray, list[int | None], dict | None]:
+    """A vector reset's `seed` and `options` read as gymnasium's vector envs do:
+    the indices to reset (`options["reset_mask"]`, default all), a seed per
+    environment (an int seeds environment i with seed + i), and the options
+    left for the environments themselves (None if none)."""
+    options = dict(options or {})
+    mask = np.asarray(options.pop("reset_mask", np.ones(num_envs, bool)), dtype=bool)
+    seeds = [None] * num_envs if seed is None else seed
+    if isinstance(seeds, int):
+        seeds = [seeds + i for i in range(num_envs)]
+    return np.flatnonzero(mask), list(seeds), options or None
+
+
 class _Buffers:
     """Named shared arrays, created by the main process and attached by the workers."""
 
@@ -165,14 +180,9 @@ class SharedMemoryVectorEnv(VectorEnv):
     def reset(self, *, seed: int | list[int | None] | None = None, options: dict | None = None):
         """Reset every environment, or with `options={"reset_mask": mask}` those
         where `mask` is true (the others keep their episodes and observations)."""
-        options = dict(options or {})
-        mask = np.asarray(options.pop("reset_mask", np.ones(self.num_envs, bool)), dtype=bool)
-        seeds = [None] * self.num_envs if seed is None else seed
-        if isinstance(seeds, int):
-            seeds = [seeds + i for i in range(self.num_envs)]
-        chosen = np.flatnonzero(mask)
+        chosen, seeds, options = reset_request(self.num_envs, seed, options)
         for i in chosen:
-            self._pipes[i].send(("reset", (seeds[i], options or None)))
+            self._pipes[i].send(("reset", (seeds[i], options)))
         infos: dict[str, Any] = {}
         for i in chosen:
             _, info, _ = self._receive(i)

@@ -22,7 +22,7 @@ from hotu_drake.retarget import frames
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
 from hotu_drake.retarget.part_ik import PartProblem
 from hotu_drake.retarget.targets import BendPlane, Coupling, Direction, Landmarks, Orientation, Position
-from hotu_drake.retarget.tree import Tree, cross
+from hotu_drake.retarget.tree import Tree, cross, rotation_vector
 from hotu_drake.rotations import heading_rotation, matrix_to_quat
 
 LOCK_STEPS = 2  # leg-IK steps at most per planted foot and frame
@@ -361,7 +361,7 @@ class Retargeter:
     def _tilt(self, pose, side: str) -> float:
         """How far (rad) the foot's sole is from level."""
         rotation = pose.rotations[self._link_of(f"{side}_toe")]
-        return _angle(heading_rotation(rotation), rotation)
+        return float(np.linalg.norm(rotation_vector(heading_rotation(rotation) @ rotation.T)))
 
     def _level_foot(self, pose, side: str) -> np.ndarray:
         """The foot frame of a flat sole with the foot's current heading."""
@@ -488,8 +488,3 @@ def _landmarks_of_embodiment_clip(clip: MotionClip) -> dict[str, np.ndarray]:
         raise ValueError(f"can retarget from a human or UDH clip, not from {clip.embodiment!r}")
     hands = "full" if any(n.endswith("_index_0") for n in clip.joint_names) else "none"
     return udh_landmarks(embodiment.load("udh", hands), clip)
-
-
-def _angle(a: np.ndarray, b: np.ndarray) -> float:
-    """The angle (rad) between two rotations."""
-    return float(np.arccos(np.clip((np.trace(a @ b.T) - 1.0) / 2.0, -1.0, 1.0)))
