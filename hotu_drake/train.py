@@ -323,6 +323,10 @@ def evaluate_run(run: Path, episodes: int, seed: int, workers: int) -> dict:
             part: round(baseline["joint_distance_deg"][part] - learned["joint_distance_deg"][part], 2)
             for part in learned["joint_distance_deg"]
         },
+        "better_coverage_than_standing_deg": {
+            part: round(baseline["coverage_deg"][part] - learned["coverage_deg"][part], 2)
+            for part in learned["coverage_deg"]
+        },
         "machine": {"cpu_cores": _cores(), "python": platform.python_version(), "date": date.today().isoformat()},
     }
     write_text_atomic(run / "report.json", json.dumps(report, indent=2) + "\n")
@@ -381,6 +385,8 @@ def _summary(report: dict) -> dict:
         "standing_normalized_return": round(standing["normalized_return"], 3),
         "joint_distance_deg": round(policy["joint_distance_deg"]["all"], 2),
         "standing_joint_distance_deg": round(standing["joint_distance_deg"]["all"], 2),
+        "coverage_deg": round(policy["coverage_deg"]["all"], 2),
+        "standing_coverage_deg": round(standing["coverage_deg"]["all"], 2),
     }
 
 

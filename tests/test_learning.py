@@ -282,3 +282,26 @@ def test_a_low_style_reward_ends_episodes_after_the_patience():
     assert rollout.style_terminated.sum() > 0
     assert np.all(rollout.terminated[rollout.style_terminated])  # a cut is an end without bootstrap
     assert set(agent.episode_lengths) == {5}
+
+
+def test_holding_one_reference_pose_is_near_the_reference_but_covers_little_of_it():
+    from hotu_drake.learning.evaluation import similarity
+
+    demos = toy_env.demonstrations()
+    reference = np.concatenate([m.joints for m in demos.motions.values()])
+    held = np.repeat(reference[:1], 50, axis=0)  # one frame of the clip, held
+    moving = reference[::3]  # the clip itself, sampled
+    still, follows = similarity(held, np.zeros(50), demos), similarity(moving, np.zeros(len(moving)), demos)
+    assert still["joint_distance_deg"]["all"] < 1e-3  # every held frame is a reference frame...
+    assert still["coverage_deg"]["all"] > 10 * follows["coverage_deg"]["all"]  # ...but most of the clip is far
+
+
+def test_part_noise_sets_the_exploration_of_that_parts_joints():
+    config = preset("amp")
+    config.action.std, config.action.part_std = 0.04, {"shoulder": 0.2}
+    agent = Agent(config.validate(), toy_env.vector_env(2), toy_env.demonstrations(), seed=0)
+    std = agent.model.log_std.exp().numpy()
+    assert np.allclose(std[[2, 3]], 0.2) and np.allclose(std[[0, 1]], 0.04)
+    config.action.part_std = {"elbowz": 0.2}
+    with pytest.raises(Exception, match="part_std"):
+        config.validate()

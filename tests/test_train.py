@@ -52,6 +52,7 @@ def test_a_run_writes_its_folder(bruce_run):
     policy = report["evaluation"]["policy"]
     assert 0.0 <= policy["fall_rate"] <= 1.0 and 0.0 <= policy["normalized_return"] <= 1.0
     assert set(policy["joint_distance_deg"]) >= {"hip", "knee", "all"}
+    assert set(policy["coverage_deg"]) == set(policy["joint_distance_deg"])
     checkpoint = read_checkpoint(bruce_run / "checkpoint.pt", kind="training")
     assert checkpoint["embodiment"] == "bruce" and checkpoint["meta"]["algo"] == "dail"
     assert {"model", "style", "actor_optimizer", "style_optimizer", "replay", "numpy_rng"} <= set(checkpoint["state"])

@@ -93,7 +93,7 @@ class Agent:
             config.action.residual_scale,
         )
         self.model = ActorCritic(
-            policy_config, config.networks.critic_hidden, config.action.std, config.action.learn_std
+            policy_config, config.networks.critic_hidden, self._action_std(action_size), config.action.learn_std
         )
         history = demonstrations.history
         self.style = nn.ModuleDict(
@@ -111,6 +111,14 @@ class Agent:
         self.counters = {"iteration": 0, "samples": 0, "episodes": 0, "falls": 0, "seconds": 0.0, "warm_started": False}
         self.episode_lengths: deque = deque(maxlen=200)
         self._reset_envs()
+
+    def _action_std(self, action_size: int) -> list[float]:
+        """Each action's exploration noise: `action.std`, or its part's `action.part_std`."""
+        std = [self.config.action.std] * action_size
+        for part, value in self.config.action.part_std.items():
+            for joint in self.demos.part_joints.get(part, []):
+                std[joint] = value
+        return std
 
     # -- environments ------------------------------------------------------------
 

@@ -22,6 +22,7 @@ from typing import Any
 import yaml
 
 from hotu_drake.errors import InputError, check_choice, check_number
+from hotu_drake.learning.parts import TABLE_PARTS
 
 ALGORITHMS = ("dail", "amp", "ase", "pmp")
 GROUPINGS = ("default", "table", "whole")
@@ -58,15 +59,18 @@ class PPOConfig:
 @dataclass
 class ActionConfig:
     """Actions: the standing pose's action plus `residual_scale` x the
-    network's output, with Gaussian exploration noise of `std`."""
+    network's output, with Gaussian exploration noise of `std` (action
+    units: [-1, 1] spans each joint's range), or of `part_std[part]` for the
+    joints of a Table I part named there."""
 
     # The residual's reach: 0.5 of each joint's half range around the standing pose (not measured
     # against other values; the references of the library stay within it).
     residual_scale: float = 0.5
-    # Exploration noise, in units of the residual (x residual_scale in action units). Measured on
-    # H1 standing from a drop: action noise 0.05 made it fall after 85 steps on average (34
-    # episodes), 0.02 kept it up for the whole 10 s in 8 episodes of 11; so 0.04 x 0.5.
+    # Exploration noise in action units. Measured on H1 standing from a drop: noise 0.05 on every
+    # joint made it fall after 85 steps on average (34 episodes), 0.02 kept it up for the whole 10 s
+    # in 8 episodes of 11.
     std: float = 0.04
+    part_std: dict[str, float] = field(default_factory=dict)  # Table I part -> its joints' noise
     learn_std: bool = False
 
 
@@ -163,6 +167,9 @@ class TrainConfig:
             check_number(getattr(p, name), f"ppo.{name}", where, low=0.0, high=1.0)
         check_number(self.action.residual_scale, "action.residual_scale", where, low=0.0, high=2.0)
         check_number(self.action.std, "action.std", where, low=1e-4, high=2.0)
+        for part, value in self.action.part_std.items():
+            check_choice(part, "action.part_std", TABLE_PARTS, where)
+            check_number(value, f"action.part_std.{part}", where, low=1e-4, high=2.0)
         check_choice(s.grouping, "style.grouping", GROUPINGS, where)
         check_choice(s.combine, "style.combine", COMBINATIONS, where)
         check_choice(s.reward, "style.reward", STYLE_REWARDS, where)

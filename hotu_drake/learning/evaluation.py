@@ -11,6 +11,11 @@ and resampled as in training, and measures:
   the distance (RMS over the part's joints, degrees) to the nearest frame of
   the run's reference clips: an independent measure of similarity that no
   network judges;
+- `coverage_deg`: the other direction, per part, the mean over the
+  reference frames of the distance to the nearest policy frame: how much
+  of the reference motion the policy shows. A robot holding one pose of a
+  clip is near that clip (small `joint_distance_deg`) but covers little of
+  it;
 - `motions`: per reference motion, the share of policy frames nearest to it
   (over all joints) and the mean style reward of those frames.
 
@@ -98,16 +103,18 @@ def evaluate(
 
 def similarity(frames: np.ndarray, rewards: np.ndarray, demonstrations: Demonstrations) -> dict:
     """Per-part nearest-reference-frame distances (degrees) of policy joint
-    frames, and each motion's share of the frames nearest to it."""
+    frames, the reference's coverage by them, and each motion's share of
+    the frames nearest to it."""
     names = list(demonstrations.motions)
     reference = np.concatenate([demonstrations.motions[m].joints for m in names])
     owner = np.concatenate([np.full(demonstrations.motions[m].num_frames, i) for i, m in enumerate(names)])
-    out: dict = {"joint_distance_deg": {}}
+    out: dict = {"joint_distance_deg": {}, "coverage_deg": {}}
     for part, joints in demonstrations.part_joints.items():
         if not joints:
             continue
         d = _nearest_distance(frames[:, joints], reference[:, joints])
         out["joint_distance_deg"][part] = float(np.degrees(d.mean()))
+        out["coverage_deg"][part] = float(np.degrees(_nearest_distance(reference[:, joints], frames[:, joints]).mean()))
     everything = np.arange(frames.shape[1])
     nearest = _nearest_index(frames[:, everything], reference[:, everything])
     motions = {}
@@ -119,6 +126,7 @@ def similarity(frames: np.ndarray, rewards: np.ndarray, demonstrations: Demonstr
         }
     out["motions"] = motions
     out["joint_distance_deg"]["all"] = float(np.degrees(_nearest_distance(frames, reference).mean()))
+    out["coverage_deg"]["all"] = float(np.degrees(_nearest_distance(reference, frames).mean()))
     return out
 
 

@@ -4,8 +4,6 @@ encoder) per part group."""
 
 from __future__ import annotations
 
-import math
-
 import torch
 from torch import nn
 from torch.nn import functional as F
@@ -22,12 +20,12 @@ class ActorCritic(nn.Module):
     (`value_normalizer`), so its scale does not depend on the reward's.
     """
 
-    def __init__(self, config: PolicyConfig, critic_hidden: tuple[int, ...], std: float, learn_std: bool):
+    def __init__(self, config: PolicyConfig, critic_hidden: tuple[int, ...], std: float | list[float], learn_std: bool):
         super().__init__()
         self.policy = PolicyNetwork(config)
         inputs = config.observation_size + sum(config.latent_sizes.values())
         self.critic = mlp([inputs, *critic_hidden, 1])
-        log_std = torch.full((config.action_size,), math.log(std))
+        log_std = torch.log(torch.as_tensor(std, dtype=torch.float32).expand(config.action_size).clone())
         if learn_std:
             self.log_std = nn.Parameter(log_std)
         else:
