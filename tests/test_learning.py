@@ -305,3 +305,55 @@ def test_part_noise_sets_the_exploration_of_that_parts_joints():
     config.action.part_std = {"elbowz": 0.2}
     with pytest.raises(Exception, match="part_std"):
         config.validate()
+
+
+def test_the_still_ends_of_a_clip_are_left_out_of_the_demonstrations():
+    from hotu_drake.learning.demonstrations import Demonstrations, MotionData
+    from hotu_drake.learning.parts import AmpLayout
+
+    still, moving = 10, 20
+    joints = np.concatenate([np.zeros(still), np.linspace(0.0, 2.0, moving), np.full(still, 2.0)])[:, None]
+    n = len(joints)
+    demos = Demonstrations(
+        layout=AmpLayout.anonymous({"hip": 1}),
+        motions={"lift": MotionData({"hip": joints}, joints, np.zeros((n, 1)), joints)},
+        joint_names=["hip_y"],
+        part_joints={"hip": [0]},
+        history=4,
+        control_rate=30.0,
+    )
+    [group] = resolve_groups(demos.layout, "whole")
+    assert len(demos.windows(group)) == n
+    kept = demos.windows(group, still_speed=0.5)
+    # the ramp's first frame repeats the still 0 and its last the still 2: a window of 4 shows motion if it
+    # ends at frame 11 or later and begins at frame 28 or earlier (ends 11..31)
+    assert len(kept) == 21
+    assert all(np.ptp(w) > 0 for w in kept)  # every window kept shows some motion
+    assert not demos.moving_windows("lift", 0.5)[: still - 1].any()
+
+
+def test_jittered_cloning_answers_states_near_the_clips_better():
+    demos = toy_env.demonstrations()
+    observations, actions = map(torch.as_tensor, demos.behavior_cloning_pairs())
+    rng = torch.Generator().manual_seed(0)
+    near = observations + 0.5 * observations.std(0) * torch.randn(observations.shape, generator=rng)
+
+    def error(noise: float) -> float:
+        config = _tiny("amp")
+        config.warm_start.epochs, config.warm_start.observation_noise = 300, noise
+        agent = Agent(config, toy_env.vector_env(1), demos, seed=0)
+        agent.warm_start()
+        with torch.no_grad():
+            return float((agent.model.policy.mean(near, {}) - actions).square().mean())
+
+    assert error(0.5) < 0.75 * error(0.0)  # 0.55-0.6 x over seeds 0-2
+
+
+def test_the_cloning_term_is_kept_during_ppo_and_fades_out():
+    config = _tiny("amp")
+    config.warm_start.keep_weight, config.warm_start.keep_samples = 5.0, 256
+    agent = Agent(config, toy_env.vector_env(2), toy_env.demonstrations(), seed=0)
+    agent.warm_start()
+    first, second, third = agent.iteration(), agent.iteration(), agent.iteration()
+    assert first["cloning_loss"] > 0 and second["cloning_loss"] > 0  # 128 samples per iteration
+    assert "cloning_loss" not in third

@@ -300,19 +300,50 @@ class Agent:
             returns=to_normal(torch.as_tensor(returns.reshape(-1, 1)))[:, 0],
             advantages=torch.as_tensor(advantages.reshape(-1)),
         )
-        stats = self.ppo.update(batch, self.generator, self._diversity if rollout.latents else None)
+        stats = self.ppo.update(batch, self.generator, self._extra_losses)
         stats |= self._update_style(rollout)
         model.policy.normalizer.update(torch.as_tensor(flat))
         return stats
 
+    def _extra_losses(self, mb: PPOBatch, mean: torch.Tensor) -> dict[str, torch.Tensor]:
+        """The actor's losses besides PPO's: ASE's diversity, and the cloning term."""
+        return self._diversity(mb, mean) | self._cloning()
+
+    def _cloning(self) -> dict[str, torch.Tensor]:
+        """The warm start's regression, kept on at `warm_start.keep_weight`
+        falling linearly to 0 over `warm_start.keep_samples` samples, so the
+        first PPO updates (made while the policy still falls) do not undo
+        what the cloning gave before the style rewards can hold it."""
+        w = self.config.warm_start
+        if w.keep_weight <= 0 or self.counters["samples"] >= w.keep_samples:
+            return {}
+        if not hasattr(self, "_cloning_pairs"):
+            obs, actions = self.demos.behavior_cloning_pairs()
+            self._cloning_pairs = (torch.as_tensor(obs), torch.as_tensor(actions), _jitter_scale(torch.as_tensor(obs)))
+        obs, target, scale = self._cloning_pairs
+        weight = w.keep_weight * (1.0 - self.counters["samples"] / w.keep_samples)
+        index = torch.randint(0, len(obs), (min(w.batch_size, len(obs)),), generator=self.generator)
+        policy = self.model.policy
+        latents = {
+            g: torch.as_tensor(sample_sphere(self.rng, len(index), size))
+            for g, size in policy.config.latent_sizes.items()
+        }
+        inputs = self._jittered(obs[index], scale, w.observation_noise)
+        return {"cloning_loss": weight * (policy.mean(inputs, latents) - target[index]).square().mean()}
+
     def _diversity(self, mb: PPOBatch, mean: torch.Tensor) -> dict[str, torch.Tensor]:
         weight = self.config.latent.diversity_weight
-        if weight <= 0:
+        if weight <= 0 or not mb.latents:
             return {}
         n, size = mean.shape[0], self.config.latent.size
         other = {g: torch.as_tensor(sample_sphere(self.rng, n, size)) for g in mb.latents}
         other_mean = self.model.policy.mean(mb.observations, other)
         return {"diversity_loss": weight * diversity_loss(mean, other_mean, mb.latents, other)}
+
+    def _demo_windows(self, group: PartGroup, count: int) -> np.ndarray:
+        """`count` demonstration windows of `group` from its own motions."""
+        motions = self.group_motions[group.name]
+        return self.demos.sample_windows(group, count, self.rng, motions, self.config.style.still_speed)
 
     def _update_style(self, rollout: Rollout) -> dict[str, float]:
         s = self.config.style
@@ -321,7 +352,7 @@ class Agent:
         current = {g.name: rollout.windows[g.name].reshape(-1, *rollout.windows[g.name].shape[2:]) for g in self.groups}
         latents = {g: z.reshape(-1, z.shape[-1]) for g, z in rollout.latents.items()}
         for g in self.groups:  # the input statistics: this iteration's policy windows and as many demonstrations
-            demo = self.demos.sample_windows(g, len(current[g.name]), self.rng, self.group_motions[g.name])
+            demo = self._demo_windows(g, len(current[g.name]))
             network = self.style[g.name]
             network.normalizer.update(
                 torch.as_tensor(np.concatenate([demo, current[g.name]]).reshape(-1, network.normalizer.mean.numel()))
@@ -330,7 +361,7 @@ class Agent:
             loss = torch.zeros(())
             for g in self.groups:
                 network, name = self.style[g.name], g.name
-                demo = self.demos.sample_windows(g, batch, self.rng, self.group_motions[name])
+                demo = self._demo_windows(g, batch)
                 index = self.rng.integers(0, len(current[name]), batch)
                 fresh = current[name][index]
                 replay = self.replay[name]
@@ -399,16 +430,23 @@ class Agent:
 
     def warm_start(self) -> dict[str, float]:
         """Behavior cloning: the policy's mean regressed on the reference clips'
-        actions at their own states (latents drawn from the prior)."""
+        actions at their own states (latents drawn from the prior), the states
+        jittered by `warm_start.observation_noise` (see `_jittered`)."""
         w = self.config.warm_start
         observations, actions = self.demos.behavior_cloning_pairs()
         policy = self.model.policy
-        policy.normalizer.update(torch.as_tensor(observations))
-        if w.epochs == 0 or len(observations) == 0:
+        obs, target = torch.as_tensor(observations), torch.as_tensor(actions)
+        if len(obs) == 0:
+            self.counters["warm_started"] = True
+            return {}
+        scale = _jitter_scale(obs)
+        policy.normalizer.update(
+            torch.cat([obs, self._jittered(obs, scale, w.observation_noise)]) if w.observation_noise > 0 else obs
+        )
+        if w.epochs == 0:
             self.counters["warm_started"] = True
             return {}
         optimizer = torch.optim.Adam(policy.parameters(), lr=w.learning_rate)
-        obs, target = torch.as_tensor(observations), torch.as_tensor(actions)
         losses = []
         for _ in range(w.epochs):
             order = torch.randperm(len(obs), generator=self.generator)
@@ -418,13 +456,22 @@ class Agent:
                     g: torch.as_tensor(sample_sphere(self.rng, len(index), size))
                     for g, size in policy.config.latent_sizes.items()
                 }
-                loss = (policy.mean(obs[index], latents) - target[index]).square().mean()
+                inputs = self._jittered(obs[index], scale, w.observation_noise)
+                loss = (policy.mean(inputs, latents) - target[index]).square().mean()
                 optimizer.zero_grad()
                 loss.backward()
                 optimizer.step()
                 losses.append(loss.item())
         self.counters["warm_started"] = True
         return {"warm_start/first_loss": losses[0], "warm_start/last_loss": losses[-1]}
+
+    def _jittered(self, obs: torch.Tensor, scale: torch.Tensor, noise: float) -> torch.Tensor:
+        """`obs` plus Gaussian noise of `noise` x `scale` per column: states
+        near the clips' own, which the cloned policy should also answer by
+        heading for the reference's next pose."""
+        if noise <= 0:
+            return obs
+        return obs + noise * scale * torch.randn(obs.shape, generator=self.generator)
 
     # -- state -----------------------------------------------------------------------
 
@@ -459,6 +506,13 @@ class Agent:
         self.counters = dict(state["counters"])
         self.episode_lengths = deque(state["episode_lengths"], maxlen=200)
         self._reset_envs()
+
+
+def _jitter_scale(obs: torch.Tensor) -> torch.Tensor:
+    """Each observation column's spread over the clips, at least the median
+    column's: a joint a clip holds still still gets jitter of a usual size."""
+    spread = obs.std(0)
+    return spread.clamp_min(float(spread.median()))
 
 
 def _tensor(value):

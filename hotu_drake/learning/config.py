@@ -88,6 +88,9 @@ class StyleConfig:
     grouping: str = "default"  # default | table | whole, or `groups` below
     groups: dict[str, list[str]] = field(default_factory=dict)  # name -> selectors ("hip", "shoulder:left")
     group_motions: dict[str, list[str]] = field(default_factory=dict)  # a group's own clips (partial datasets)
+    # Leave out of the demonstrations the windows wholly inside the still pose a clip holds before
+    # it starts and after it ends (every joint slower than this, rad/s; 0: keep them).
+    still_speed: float = 0.0
     combine: str = "product"  # product (DAIL) | mean (PMP) | single (one group: AMP, ASE)
     reward: str = "amp"  # amp: max(0, 1 - 0.25 (D - 1)^2); log: -log(1 - sigmoid(logit)), bounded
     weight: float = 1.0
@@ -126,6 +129,9 @@ class WarmStartConfig:
     epochs: int = 200
     learning_rate: float = 1e-3
     batch_size: int = 256
+    observation_noise: float = 0.0  # jitter of the clips' states, in units of each column's spread
+    keep_weight: float = 0.0  # the cloning loss kept in the actor's loss during PPO, at this weight...
+    keep_samples: int = 200_000  # ...falling linearly to 0 over this many samples
 
 
 @dataclass
@@ -173,6 +179,7 @@ class TrainConfig:
         check_choice(s.grouping, "style.grouping", GROUPINGS, where)
         check_choice(s.combine, "style.combine", COMBINATIONS, where)
         check_choice(s.reward, "style.reward", STYLE_REWARDS, where)
+        check_number(s.still_speed, "style.still_speed", where, low=0.0, high=100.0)
         check_number(s.batch_size, "style.batch_size", where, low=1, high=1_000_000, integer=True)
         check_number(s.updates, "style.updates", where, low=0, high=1000, integer=True)
         check_number(s.replay_keep, "style.replay_keep", where, low=0.0, high=1.0)
@@ -183,6 +190,9 @@ class TrainConfig:
         )
         check_choice(lat.encoder_reward, "latent.encoder_reward", ENCODER_REWARDS, where)
         check_number(self.warm_start.epochs, "warm_start.epochs", where, low=0, high=100_000, integer=True)
+        check_number(self.warm_start.keep_weight, "warm_start.keep_weight", where, low=0.0, high=1e6)
+        check_number(self.warm_start.keep_samples, "warm_start.keep_samples", where, low=1, high=10**10, integer=True)
+        check_number(self.warm_start.observation_noise, "warm_start.observation_noise", where, low=0.0, high=10.0)
         env = self.environment
         check_number(env.amp_history, "environment.amp_history", where, low=1, high=300, integer=True)
         check_number(env.style_termination, "environment.style_termination", where, low=0.0, high=1.0)

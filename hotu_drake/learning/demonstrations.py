@@ -69,27 +69,49 @@ class Demonstrations:
         ends = np.arange(n)[:, None]
         return np.clip(ends - np.arange(self.history - 1, -1, -1)[None, :], 0, n - 1)
 
-    def windows(self, group: PartGroup, motions: list[str] | None = None) -> np.ndarray:
-        """Every window (N, K, d_group) of `group` over `motions` (default all)."""
+    def moving_windows(self, motion: str, still_speed: float) -> np.ndarray:
+        """Which windows of `motion` show some of its motion: False for the
+        windows that lie wholly in the still pose a clip holds before it
+        starts or after it ends (every joint slower than `still_speed`,
+        rad/s); all True when `still_speed` is 0."""
+        index = self.window_indices(motion)
+        if still_speed <= 0:
+            return np.ones(len(index), bool)
+        joints = self.motions[motion].joints
+        speed = np.abs(np.diff(joints, axis=0)).max(1) * self.control_rate  # between frames t and t + 1
+        moving = np.flatnonzero(speed >= still_speed)
+        if len(moving) == 0:
+            return np.ones(len(index), bool)  # a clip that is all pose: keep it
+        first, last = moving[0] + 1, moving[-1]  # the first frame to differ from the one before, the last from the next
+        return (index.max(1) >= first) & (index.min(1) <= last)
+
+    def windows(self, group: PartGroup, motions: list[str] | None = None, still_speed: float = 0.0) -> np.ndarray:
+        """Every window (N, K, d_group) of `group` over `motions` (default
+        all), without the still ends' windows if `still_speed` > 0."""
         chosen = motions or list(self.motions)
         out = []
         for name in chosen:
             frames = group.gather(self.motions[name].amp)
-            out.append(frames[self.window_indices(name)])
+            out.append(frames[self.window_indices(name)[self.moving_windows(name, still_speed)]])
         return np.concatenate(out).astype(np.float32)
 
     def sample_windows(
-        self, group: PartGroup, count: int, rng: np.random.Generator, motions: list[str] | None = None
+        self,
+        group: PartGroup,
+        count: int,
+        rng: np.random.Generator,
+        motions: list[str] | None = None,
+        still_speed: float = 0.0,
     ) -> np.ndarray:
         """`count` windows of `group`, their end frames uniform over `motions`' frames."""
-        windows = self._cached_windows(group, tuple(motions or self.motions))
+        windows = self._cached_windows(group, tuple(motions or self.motions), still_speed)
         return windows[rng.integers(0, len(windows), count)]
 
-    def _cached_windows(self, group: PartGroup, motions: tuple[str, ...]) -> np.ndarray:
+    def _cached_windows(self, group: PartGroup, motions: tuple[str, ...], still_speed: float) -> np.ndarray:
         cache = self.__dict__.setdefault("_window_cache", {})
-        key = (group.name, motions)
+        key = (group.name, motions, still_speed)
         if key not in cache:
-            cache[key] = self.windows(group, list(motions))
+            cache[key] = self.windows(group, list(motions), still_speed)
         return cache[key]
 
     def behavior_cloning_pairs(self) -> tuple[np.ndarray, np.ndarray]:
