@@ -5,6 +5,7 @@
     python -m hotu_drake.train pretrain --out runs/h1_upper --steps 4000000 --resume
     python -m hotu_drake.train evaluate runs/h1_upper [--episodes 20]
     python -m hotu_drake.train plot runs/h1_upper runs/h1_upper_amp --out curves.png [--keys style,episode_length]
+    python -m hotu_drake.train trace runs/h1_upper --out trace.png [--parts shoulder,elbow] [--seed 7]
 
 `pretrain` builds the run's demonstrations from the robot's reference clips
 (on the Drake side, once), starts `--workers` environments
@@ -80,7 +81,15 @@ def main(argv: list[str] | None = None) -> int:
     plot.add_argument("--out", required=True, help="the PNG to write")
     plot.add_argument("--keys", default="style", help="comma-separated metrics (default: style)")
     plot.add_argument("--smooth", type=int, default=10, help="moving-average window in iterations (default 10)")
+    trace = sub.add_parser("trace", help="joint traces of one evaluation episode next to the reference clips' (PNG)")
+    trace.add_argument("run", help="the run folder")
+    trace.add_argument("--out", required=True, help="the PNG to write")
+    trace.add_argument("--parts", default="shoulder,elbow,wrist,hip,knee", help="Table I parts to draw")
+    trace.add_argument("--seed", type=int, default=7, help="the episode's seed (its drop and latents)")
+    trace.add_argument("--min-range", type=float, default=15.0, help="draw joints the references move this far (deg)")
     args = parser.parse_args(argv)
+    if args.command == "trace":
+        return trace_command(args)
     if args.command == "pretrain":
         return pretrain(args)
     if args.command == "plot":
@@ -372,6 +381,84 @@ def plot_command(args) -> int:
     figure.tight_layout()
     with atomic_output(out) as tmp:
         figure.savefig(tmp, format="png", dpi=110)
+    plt.close(figure)
+    print(f"wrote {out}", file=sys.stderr)
+    return 0
+
+
+def trace_command(args) -> int:
+    """One episode of the run's policy from a drop (as `evaluate`: the mean
+    action, latents from the prior), its joints drawn against the
+    references' for the joints the references move."""
+    from hotu_drake.learning.agent import Agent
+
+    run, out = Path(args.run), check_output_path(Path(args.out))
+    check_number(args.seed, "--seed", low=0, high=2**31 - 1, integer=True)
+    if not (run / "checkpoint.pt").is_file() or not (run / "run.json").is_file():
+        raise UserError(f"{run}: not a run folder (no checkpoint.pt and run.json)")
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise UserError("trace needs matplotlib (pip install matplotlib)") from None
+    settings = json.loads((run / "run.json").read_text())
+    checkpoint = read_checkpoint(run / "checkpoint.pt", kind="training")
+    config = config_from_dict(checkpoint["meta"]["config"], where=str(run / "checkpoint.pt"))
+    demos, standing = _demonstrations(settings, config)
+    parts = [p.strip() for p in args.parts.split(",") if p.strip()]
+    for part in parts:
+        if part not in demos.part_joints:
+            raise UserError(f"--parts: {settings['robot']} has no part {part!r} (has: {', '.join(demos.part_joints)})")
+    envs = _vector_env(settings, config, 1, None, evaluation=True)
+    try:
+        agent = Agent(config, envs, demos, action_offset=standing, seed=args.seed)
+        agent.load_state_dict(checkpoint["state"])
+        columns = np.asarray(demos.meta["joint_columns"])
+        observations, _ = envs.reset(seed=args.seed)
+        frames, fell = [], False
+        while True:
+            action, _ = agent.act(observations, agent.latents.current(), deterministic=True)
+            observations, _, terminated, truncated, info = envs.step(action)
+            agent.latents.step(terminated | truncated)
+            if terminated[0] or truncated[0]:  # the step's own state, not the next episode's first
+                frames.append(info["final_obs"][0][columns])
+                fell = bool(terminated[0])
+                break
+            frames.append(observations[0, columns])
+    finally:
+        envs.close()
+    policy = np.degrees(np.array(frames))
+    references = {name: np.degrees(m.joints) for name, m in demos.motions.items()}
+    joints = [
+        j
+        for part in parts
+        for j in demos.part_joints[part]
+        if np.ptp(np.concatenate([r[:, j] for r in references.values()])) >= args.min_range
+    ]
+    if not joints:
+        raise UserError(f"--parts: the references move none of {args.parts}'s joints by {args.min_range} degrees")
+    rate = demos.control_rate
+    figure, axes = plt.subplots(len(joints), 2, figsize=(10, 1.5 * len(joints) + 0.6), sharex="col", squeeze=False)
+    for row, j in zip(axes, joints):
+        for name, r in references.items():
+            row[0].plot(np.arange(len(r)) / rate, r[:, j], label=name)
+        row[1].plot(np.arange(len(policy)) / rate, policy[:, j], color="k")
+        row[0].set_ylabel(demos.joint_names[j], fontsize=7)
+        low = min(row[0].get_ylim()[0], row[1].get_ylim()[0])
+        high = max(row[0].get_ylim()[1], row[1].get_ylim()[1])
+        row[0].set_ylim(low, high)
+        row[1].set_ylim(low, high)
+    axes[0, 0].set_title("reference clips (degrees)")
+    axes[0, 0].legend(fontsize=6)
+    ending = "fell" if fell else "stayed up"
+    axes[0, 1].set_title(f"{run.name}: {len(policy) / rate:.0f} s from a drop, {ending}")
+    axes[-1, 0].set_xlabel("s")
+    axes[-1, 1].set_xlabel("s")
+    figure.tight_layout()
+    with atomic_output(out) as tmp:
+        figure.savefig(tmp, format="png", dpi=80)
     plt.close(figure)
     print(f"wrote {out}", file=sys.stderr)
     return 0

@@ -859,6 +859,11 @@ def _(tmp):
     return "hotu_drake.train", ["evaluate", str(tmp)]
 
 
+@case("train_trace_not_a_run", "cli", "not a run folder")
+def _(tmp):
+    return "hotu_drake.train", ["trace", str(tmp), "--out", str(tmp / "trace.png")]
+
+
 def corpus_summary() -> dict[str, int]:
     """How many cases of each family (the README records it)."""
     families: dict[str, int] = {}

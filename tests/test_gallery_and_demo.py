@@ -29,7 +29,7 @@ def test_demo_prints_the_table_and_writes_the_gallery(tmp_path):
     assert page.stat().st_size > 100_000
     legged = ("bruce", "h1", "naviai", "udh", "walker")
     perturbations = [f"perturb_{robot}.html" for robot in legged]
-    learned = ["learned_bruce_squat.html", "learned_h1_upper_body.html"]  # the policies in systems/policies
+    learned = ["learned_bruce_squat.html", "learned_h1_upper_body.html", "learned_h1_wave.html"]  # systems/policies
     expected = sorted(["box_carry.html", "clips", "gallery.html", "walk.html", *perturbations, *learned])
     assert sorted(p.name for p in tmp_path.iterdir()) == expected
     for name in perturbations:

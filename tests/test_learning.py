@@ -184,12 +184,14 @@ def _tiny(algo: str = "dail"):
     config.ppo.learning_rate = 1e-3
     config.action.residual_scale = 1.0
     config.action.std = 0.3
+    config.action.part_std = {}
     config.networks.policy_hidden = config.networks.critic_hidden = (64, 64)
     config.networks.discriminator_hidden = (32, 32)
     config.style.batch_size = 128
     config.style.learning_rate = 1e-3
     config.style.replay_size = 2000
     config.warm_start.epochs = 0
+    config.warm_start.keep_weight = 0.0  # PPO and the style rewards alone (the cloning has its own tests)
     config.torch_threads = 1
     return config
 

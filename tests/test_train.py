@@ -123,3 +123,14 @@ def test_a_finished_run_is_not_overwritten(bruce_run, capsys):
     code = run_cli(main, ["pretrain", *BRUCE, "--steps", "64", "--out", str(bruce_run)])
     assert code == 2 and "a run is already here" in capsys.readouterr().err
     assert (bruce_run / "checkpoint.pt").stat().st_mtime_ns == before
+
+
+def test_trace_draws_an_episode_against_the_references(bruce_run, tmp_path, capsys):
+    from hotu_drake.cli import run_cli
+
+    out = tmp_path / "trace.png"
+    assert main(["trace", str(bruce_run), "--out", str(out), "--parts", "hip,knee"]) == 0
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    code = run_cli(main, ["trace", str(bruce_run), "--out", str(tmp_path / "no.png"), "--parts", "torso"])
+    assert code == 2 and "no part 'torso'" in capsys.readouterr().err  # Bruce has no torso joint
+    assert not (tmp_path / "no.png").exists()
