@@ -274,9 +274,7 @@ def _save(agent, settings: dict, out: Path) -> None:
 
 
 def evaluate_command(args) -> int:
-    run = Path(args.run)
-    if not (run / "checkpoint.pt").is_file() or not (run / "run.json").is_file():
-        raise UserError(f"{run}: not a run folder (no checkpoint.pt and run.json)")
+    run = _run_folder(args.run)
     check_number(args.episodes, "--episodes", low=1, high=10_000, integer=True)
     if args.workers is not None:
         check_number(args.workers, "--workers", low=1, high=64, integer=True)
@@ -285,15 +283,29 @@ def evaluate_command(args) -> int:
     return 0
 
 
+def _run_folder(path: str) -> Path:
+    """`path` as a run folder: one with a training checkpoint and its settings."""
+    run = Path(path)
+    if not (run / "checkpoint.pt").is_file() or not (run / "run.json").is_file():
+        raise UserError(f"{run}: not a run folder (no checkpoint.pt and run.json)")
+    return run
+
+
+def _read_run(run: Path) -> tuple[dict, dict, TrainConfig]:
+    """A run folder's settings, last training checkpoint and configuration."""
+    settings = json.loads((run / "run.json").read_text())
+    checkpoint = read_checkpoint(run / "checkpoint.pt", kind="training")
+    config = config_from_dict(checkpoint["meta"]["config"], where=str(run / "checkpoint.pt"))
+    return settings, checkpoint, config
+
+
 def evaluate_run(run: Path, episodes: int, seed: int, workers: int) -> dict:
     """Evaluate the run's last checkpoint and the standing robot (see
     `learning.evaluation`); write and return `report.json`."""
     from hotu_drake.learning.agent import Agent
     from hotu_drake.learning.evaluation import evaluate, standing_policy
 
-    settings = json.loads((run / "run.json").read_text())
-    checkpoint = read_checkpoint(run / "checkpoint.pt", kind="training")
-    config = config_from_dict(checkpoint["meta"]["config"], where=str(run / "checkpoint.pt"))
+    settings, checkpoint, config = _read_run(run)
     torch.set_num_threads(config.torch_threads)
     demos, standing = _demonstrations(settings, config)
     envs = _vector_env(settings, config, min(workers, episodes), None, evaluation=True)
@@ -359,13 +371,7 @@ def plot_command(args) -> int:
             if not any(key in r for r in rows):
                 raise UserError(f"{run / 'metrics.jsonl'}: no metric {key!r}")
         curves[f"{run.name} ({settings.get('algo', '?')})"] = rows
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise UserError("plot needs matplotlib (pip install matplotlib)") from None
+    plt = _pyplot("plot")
     figure, axes = plt.subplots(len(keys), 1, figsize=(7, 3 * len(keys)), squeeze=False)
     for ax, key in zip(axes[:, 0], keys):
         for label, rows in curves.items():
@@ -378,12 +384,29 @@ def plot_command(args) -> int:
         ax.set_ylabel(key)
         ax.grid(alpha=0.3)
         ax.legend()
+    _save_figure(plt, figure, out, dpi=110)
+    return 0
+
+
+def _pyplot(command: str):
+    """matplotlib's pyplot without a display, or the error that says how to get it."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise UserError(f"{command} needs matplotlib (pip install matplotlib)") from None
+    return plt
+
+
+def _save_figure(plt, figure, out: Path, dpi: int) -> None:
+    """`figure` as a PNG at `out`, written whole or not at all."""
     figure.tight_layout()
     with atomic_output(out) as tmp:
-        figure.savefig(tmp, format="png", dpi=110)
+        figure.savefig(tmp, format="png", dpi=dpi)
     plt.close(figure)
     print(f"wrote {out}", file=sys.stderr)
-    return 0
 
 
 def trace_command(args) -> int:
@@ -392,20 +415,10 @@ def trace_command(args) -> int:
     references' for the joints the references move."""
     from hotu_drake.learning.agent import Agent
 
-    run, out = Path(args.run), check_output_path(Path(args.out))
+    run, out = _run_folder(args.run), check_output_path(Path(args.out))
     check_number(args.seed, "--seed", low=0, high=2**31 - 1, integer=True)
-    if not (run / "checkpoint.pt").is_file() or not (run / "run.json").is_file():
-        raise UserError(f"{run}: not a run folder (no checkpoint.pt and run.json)")
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise UserError("trace needs matplotlib (pip install matplotlib)") from None
-    settings = json.loads((run / "run.json").read_text())
-    checkpoint = read_checkpoint(run / "checkpoint.pt", kind="training")
-    config = config_from_dict(checkpoint["meta"]["config"], where=str(run / "checkpoint.pt"))
+    plt = _pyplot("trace")
+    settings, checkpoint, config = _read_run(run)
     demos, standing = _demonstrations(settings, config)
     parts = [p.strip() for p in args.parts.split(",") if p.strip()]
     for part in parts:
@@ -456,11 +469,7 @@ def trace_command(args) -> int:
     axes[0, 1].set_title(f"{run.name}: {len(policy) / rate:.0f} s from a drop, {ending}")
     axes[-1, 0].set_xlabel("s")
     axes[-1, 1].set_xlabel("s")
-    figure.tight_layout()
-    with atomic_output(out) as tmp:
-        figure.savefig(tmp, format="png", dpi=80)
-    plt.close(figure)
-    print(f"wrote {out}", file=sys.stderr)
+    _save_figure(plt, figure, out, dpi=80)
     return 0
 
 

@@ -317,19 +317,32 @@ class Agent:
         w = self.config.warm_start
         if w.keep_weight <= 0 or self.counters["samples"] >= w.keep_samples:
             return {}
-        if not hasattr(self, "_cloning_pairs"):
-            obs, actions = self.demos.behavior_cloning_pairs()
-            self._cloning_pairs = (torch.as_tensor(obs), torch.as_tensor(actions), _jitter_scale(torch.as_tensor(obs)))
-        obs, target, scale = self._cloning_pairs
+        obs, _, _ = self._cloning_data()
         weight = w.keep_weight * (1.0 - self.counters["samples"] / w.keep_samples)
         index = torch.randint(0, len(obs), (min(w.batch_size, len(obs)),), generator=self.generator)
+        return {"cloning_loss": weight * self._cloning_loss(index)}
+
+    def _cloning_data(self) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """The clips' (observation, action) pairs and the jitter's scale per
+        observation column, read once from the demonstrations."""
+        if not hasattr(self, "_cloning_pairs"):
+            observations, actions = self.demos.behavior_cloning_pairs()
+            obs = torch.as_tensor(observations)
+            self._cloning_pairs = (obs, torch.as_tensor(actions), _jitter_scale(obs) if len(obs) else obs)
+        return self._cloning_pairs
+
+    def _cloning_loss(self, index: torch.Tensor) -> torch.Tensor:
+        """The mean squared error of the policy's mean against the clips'
+        actions at the pairs `index`, on jittered states, latents drawn from
+        the prior."""
+        obs, target, scale = self._cloning_data()
         policy = self.model.policy
         latents = {
             g: torch.as_tensor(sample_sphere(self.rng, len(index), size))
             for g, size in policy.config.latent_sizes.items()
         }
-        inputs = self._jittered(obs[index], scale, w.observation_noise)
-        return {"cloning_loss": weight * (policy.mean(inputs, latents) - target[index]).square().mean()}
+        inputs = self._jittered(obs[index], scale, self.config.warm_start.observation_noise)
+        return (policy.mean(inputs, latents) - target[index]).square().mean()
 
     def _diversity(self, mb: PPOBatch, mean: torch.Tensor) -> dict[str, torch.Tensor]:
         weight = self.config.latent.diversity_weight
@@ -433,13 +446,11 @@ class Agent:
         actions at their own states (latents drawn from the prior), the states
         jittered by `warm_start.observation_noise` (see `_jittered`)."""
         w = self.config.warm_start
-        observations, actions = self.demos.behavior_cloning_pairs()
+        obs, _, scale = self._cloning_data()
         policy = self.model.policy
-        obs, target = torch.as_tensor(observations), torch.as_tensor(actions)
         if len(obs) == 0:
             self.counters["warm_started"] = True
             return {}
-        scale = _jitter_scale(obs)
         policy.normalizer.update(
             torch.cat([obs, self._jittered(obs, scale, w.observation_noise)]) if w.observation_noise > 0 else obs
         )
@@ -451,13 +462,7 @@ class Agent:
         for _ in range(w.epochs):
             order = torch.randperm(len(obs), generator=self.generator)
             for start in range(0, len(obs), w.batch_size):
-                index = order[start : start + w.batch_size]
-                latents = {
-                    g: torch.as_tensor(sample_sphere(self.rng, len(index), size))
-                    for g, size in policy.config.latent_sizes.items()
-                }
-                inputs = self._jittered(obs[index], scale, w.observation_noise)
-                loss = (policy.mean(inputs, latents) - target[index]).square().mean()
+                loss = self._cloning_loss(order[start : start + w.batch_size])
                 optimizer.zero_grad()
                 loss.backward()
                 optimizer.step()
