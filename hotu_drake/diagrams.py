@@ -6,11 +6,12 @@
     robot, floor             plant.add_robot, add_ground
     task objects             objects.add_scene_objects
     perturbation cubes       systems.perturbation.add_perturbation_cubes
+    interaction graph        systems.interaction_graph.AddInteractionGraph
     PD targets (driver)      standing pose | systems.reference | systems.policy
+                             | systems.skill (over systems.policy)
                              | exported `action` input | systems.base_command
     PD                       systems.pd.AddPdControl (built-in or SaturatedPdController)
     observation              systems.observation.AddObservation
-    interaction graph        systems.interaction_graph.AddInteractionGraph
     applied forces           systems.perturbation, systems.object_holder
     Meshcat                  Drake's ApplyVisualizationConfig
 
@@ -18,7 +19,7 @@ Every system is added by name (`pd`, `reference`, `policy`, `observation`,
 `interaction_graph`, `perturbation`, `object_holder`, ...), and the useful
 ports are exported from the diagram: outputs `observation`,
 `amp_observation`, `action`, `reference_joint_positions`, `interaction`,
-`interaction_graph`; inputs `action` and `twist` (fixed at the standing
+`goal`, `interaction_graph`; inputs `action` and `twist` (fixed at the standing
 action and zero twist until a user sets them).
 """
 
@@ -164,17 +165,18 @@ def build_simulation(
         raise RuntimeError(f"{emb.name}: actuator order differs from the spec's joint order")
 
     parts = DiagramParts(builder, plant, scene_graph, model, emb, scenario, clip)
-    AddPdControl(builder, plant, model, emb, add_driver(scenario.driver, parts), explicit=parts.explicit)
-    if scenario.observation:
-        parts.observation()
-    forces = []
     task = [o for o in scenario.objects if o.is_task_object]
     if task and {"left_hand", "right_hand", "pelvis"} <= emb.key_bodies.keys():
         bodies = {o.instance_name: object_body(plant, objects, o) for o in task}
         targets = np.array([o.target or o.position for o in task], dtype=float)
-        graph = AddInteractionGraph(builder, plant, model, emb, bodies, targets)
-        builder.ExportOutput(graph.GetOutputPort("interaction"), "interaction")
+        graph = AddInteractionGraph(builder, plant, scene_graph, model, emb, bodies, targets)
+        for name in ("interaction", "goal"):
+            builder.ExportOutput(graph.GetOutputPort(name), name)
         builder.ExportOutput(graph.GetOutputPort("graph"), "interaction_graph")
+    AddPdControl(builder, plant, model, emb, add_driver(scenario.driver, parts), explicit=parts.explicit)
+    if scenario.observation:
+        parts.observation()
+    forces = []
     if cubes:
         torso = plant.GetBodyByName(emb.key_bodies["torso"], model)
         thrower = AddPerturbation(builder, plant, cubes, scenario.perturbations, torso, scenario.time_step)

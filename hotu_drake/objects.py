@@ -174,7 +174,7 @@ class SceneObject:
 
     @property
     def is_welded(self) -> bool:
-        return self.fixed or self.kind == "target_marker"
+        return self.fixed
 
     def pose(self) -> RigidTransform:
         """Where the object starts (or is welded): its position, turned by its yaw."""
@@ -199,11 +199,18 @@ def add_scene_objects(plant: MultibodyPlant, scene_objects: list[SceneObject]) -
     for obj in scene_objects:
         weld = obj.pose() if obj.is_welded else None
         objects[obj.instance_name] = add_object(plant, obj.kind, obj.instance_name, weld=weld)
+        if obj.kind == "target_marker" and weld is None:
+            plant.set_gravity_enabled(objects[obj.instance_name], False)
         if obj.target:
-            marker = f"{obj.instance_name}_target"
-            target = RigidTransform(np.asarray(obj.target, dtype=float))
-            objects[marker] = add_object(plant, "target_marker", marker, weld=target)
+            marker = target_marker_name(obj)
+            objects[marker] = add_object(plant, "target_marker", marker)
+            plant.set_gravity_enabled(objects[marker], False)  # visual only: it floats where it is put
     return objects
+
+
+def target_marker_name(obj: SceneObject) -> str:
+    """The instance name of the marker at `obj`'s target (a free, weightless body without collision)."""
+    return f"{obj.instance_name}_target"
 
 
 def object_body(plant: MultibodyPlant, objects: dict, obj: SceneObject):
@@ -212,7 +219,15 @@ def object_body(plant: MultibodyPlant, objects: dict, obj: SceneObject):
 
 
 def place_objects(plant: MultibodyPlant, plant_context, objects: dict, scene_objects: list[SceneObject]) -> None:
-    """Put every free scene object at its start pose."""
+    """Put every free scene object at its start pose, and each target marker at its target."""
     for obj in scene_objects:
         if not obj.is_welded:
             plant.SetFreeBodyPose(plant_context, object_body(plant, objects, obj), obj.pose())
+        if obj.target:
+            place_target_marker(plant, plant_context, objects, obj, obj.target)
+
+
+def place_target_marker(plant: MultibodyPlant, plant_context, objects: dict, obj: SceneObject, target) -> None:
+    """Move the marker of `obj`'s target to `target` (3-D)."""
+    marker = plant.GetBodyByName("target_marker", objects[target_marker_name(obj)])
+    plant.SetFreeBodyPose(plant_context, marker, RigidTransform(np.asarray(target, dtype=float)))

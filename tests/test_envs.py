@@ -9,6 +9,7 @@ from gymnasium.utils.env_checker import check_env
 
 import hotu_drake.envs  # noqa: F401  (registers the ids)
 from hotu_drake.cli import UserError
+from hotu_drake.errors import InputError
 from hotu_drake.motion.library import MOTIONS
 from hotu_drake.retarget.references import reference_clips
 from hotu_drake.systems.observation import ROOT_FEATURES
@@ -171,12 +172,68 @@ def test_box_carry_goal_reward_and_interaction():
     for _ in range(10):
         _, reward, _, _, info = env.step(_standing(env))
     np.testing.assert_allclose(inner.object_position(), start, atol=2e-3)  # held in the air
-    np.testing.assert_allclose(info["interaction"][6:9], goal["target"] - inner.object_position(), atol=1e-5)
+    heading = _heading(inner)  # s_I is in the pelvis' heading frame
+    np.testing.assert_allclose(info["interaction"][6:9], heading @ (goal["target"] - inner.object_position()), atol=1e-5)
     terms = info["reward_terms"]
     distance = np.linalg.norm(inner.object_position() - goal["target"])
     assert terms["delivery"] == pytest.approx(np.exp(-0.5 * distance**2), rel=1e-6)
     assert terms["carrying"] == 0.0 and 0.0 <= reward <= 1.0
     assert reward == pytest.approx(0.2 * terms["approach"] + 0.5 * terms["delivery"], rel=1e-6)
+    env.close()
+
+
+def _heading(env) -> np.ndarray:
+    from hotu_drake.rotations import heading_rotation
+
+    plant = env.sim.plant
+    pelvis = plant.GetBodyByName(env.embodiment.key_bodies["pelvis"], env.sim.model)
+    return heading_rotation(plant.EvalBodyPoseInWorld(env._plant_context, pelvis).rotation().matrix()).T
+
+
+def test_box_carry_success_needs_the_box_resting_near_the_target_for_a_second():
+    from pydrake.math import RigidTransform
+
+    env = gym.make("hotu_drake/BoxCarry-v0", motions=WALK)
+    inner = env.unwrapped
+    _, info = env.reset(seed=5, options={"init": "default"})
+    target = info["goal"]["target"]
+    marker = inner.sim.plant.GetBodyByName("target_marker", inner.sim.objects["box_target"])
+    np.testing.assert_allclose(inner.sim.plant.EvalBodyPoseInWorld(inner._plant_context, marker).translation(), target)
+    box = inner._object_body
+    inner.sim.plant.SetFreeBodyPose(inner._plant_context, box, RigidTransform(target + [0.12, 0.0, 0.0]))
+    for _ in range(inner.hold_steps + 2):  # 12 cm away, held floating there: not a success
+        _, _, _, _, info = env.step(_standing(env))
+    assert not info["success"] and info["success_steps"] == 0
+    inner.sim.plant.SetFreeBodyPose(inner._plant_context, box, RigidTransform(target + [0.08, 0.0, 0.0]))
+    for step in range(1, inner.hold_steps + 1):  # 8 cm away and at rest: success after 1 s (30 steps)
+        _, _, _, _, info = env.step(_standing(env))
+        assert info["success"] == (step >= inner.hold_steps), step
+    inner.sim.plant.SetFreeBodyPose(inner._plant_context, box, RigidTransform(target + [1.0, 0.0, 0.0]))
+    _, _, _, _, info = env.step(_standing(env))
+    assert info["success"] and info["success_steps"] == 0  # latched for the episode
+    _, info = env.reset(seed=6, options={"init": "default"})
+    _, _, _, _, info = env.step(_standing(env))
+    assert not info["success"] and not np.allclose(info["goal"]["target"], target)  # a new target, a new count
+    env.close()
+
+
+def test_demonstration_interaction_comes_from_the_same_graph():
+    """s_I of the library's box carry (retargeted to the UDH) at its own frames: the hands touch the box
+    while it is off the floor and not while the person walks up to it; d_og ends at zero."""
+    env = gym.make("hotu_drake/BoxCarry-v0", motions=["walk", "box_carry"])
+    inner = env.unwrapped
+    assert inner.interaction_clips() == [1]
+    clip = inner.clips[1]
+    times = np.arange(0.0, clip.duration, 1.0 / 30.0)
+    s_i = np.array([inner.clip_interaction(1, t) for t in times])
+    assert s_i.shape == (len(times), inner.interaction_size) == (len(times), 11)
+    frames = np.minimum(np.round(times * clip.fps).astype(int), clip.num_frames - 1)
+    lifted = clip.object_poses[frames, 0, 2] > 0.3
+    assert lifted.sum() > 60 and s_i[lifted, -2:].all()  # both hands on the box while it is carried
+    assert not s_i[times < 2.0, -2:].any()  # walking up to it
+    assert np.linalg.norm(s_i[-1, 6:9]) < 1e-6 < np.linalg.norm(s_i[0, 6:9])
+    with pytest.raises(InputError, match="no box track"):
+        inner.clip_interaction(0, 0.5)  # the walk has no box
     env.close()
 
 
@@ -189,6 +246,7 @@ def test_drill_rests_on_the_table_until_picked_up():
         _, reward, _, _, info = env.step(_standing(env))
     np.testing.assert_allclose(env.unwrapped.object_position(), start, atol=0.01)
     assert info["goal"]["target"][2] > start[2] + 0.1 and 0.0 <= reward <= 1.0
+    assert not info["success"]  # not lifted
     env.close()
 
 

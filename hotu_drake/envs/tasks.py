@@ -5,31 +5,48 @@ default embodiment the UDH, any other by `robot=`) with a task:
 
 - goal g: the object's start pose and its target position, drawn at every
   reset within the configured ranges (relative to the robot's start,
-  which faces +x). The observation appends, in the root's heading frame,
-  the object's position and the first two columns of its rotation (9
-  numbers) and the target's position (3);
+  which faces +x); a marker shows the target. The observation appends the
+  InteractionGraphSystem's `goal`: in the pelvis' heading frame, the
+  object's position and the first two columns of its rotation (9 numbers)
+  and the target's position (3);
 - `info["interaction"]`: s_I = {d_ho, d_og, e_ho} from the
   InteractionGraphSystem (hand-object vectors, object-target vector,
   hand-object contact flags), and `info["goal"]` (start pose, target);
-- task reward r_g in [0, 1], see each class.
+- task reward r_g in [0, 1] and `info["success"]` (latched: true from the
+  step the task is done to the episode's end), see each class; the task's
+  steps so far toward success in `info["success_steps"]`.
+
+`clip_interaction` gives s_I at a reference clip's frame with its object
+track (the interaction discriminator's demonstrations), from the same
+system on a scratch context.
 """
 
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RigidTransform, RollPitchYaw
 
 from hotu_drake import embodiment as embodiments
 from hotu_drake.embodiment.spec import HAND_ROLES
 from hotu_drake.envs.base import DiagramEnv, environment_scenario
 from hotu_drake.errors import InputError, check_number, check_vector
-from hotu_drake.objects import DRILL_BASE, TABLE_TOP, SceneObject, object_body
+from hotu_drake.motion.playback import ClipPlayback
+from hotu_drake.objects import (
+    DRILL_BASE,
+    TABLE_TOP,
+    SceneObject,
+    object_body,
+    place_target_marker,
+)
+from hotu_drake.plant import set_robot_state
 from hotu_drake.retarget.references import reference_clips
-from hotu_drake.rotations import heading_rotation
 from hotu_drake.scenario import Scenario
+from hotu_drake.systems.interaction_graph import GOAL_SIZE
 
-GOAL_FEATURES = 3 + 6 + 3
+GOAL_FEATURES = GOAL_SIZE
+HOLD_SECONDS = 1.0  # how long the task's end state must hold for success
 
 
 @dataclass(frozen=True)
@@ -79,12 +96,22 @@ class _ObjectTaskEnv(DiagramEnv):
         self._object_body = object_body(sim.plant, sim.objects, obj)
         self._hand_bodies = [sim.plant.GetBodyByName(emb.key_bodies[r], sim.model) for r in HAND_ROLES]
         self._graph_port = sim.diagram.GetOutputPort("interaction")
+        self._goal_port = sim.diagram.GetOutputPort("goal")
         self._targets = sim.systems["object_targets"]
+        self._scratch_diagram = sim.diagram.CreateDefaultContext()
         self.start_pose = RigidTransform()
         self.target = np.zeros(3)
+        self.hold_steps = int(round(HOLD_SECONDS / self.control_period))
+        self._success_steps = 0
+        self._succeeded = False
 
     def _scene_objects(self, obj: SceneObject) -> list[SceneObject]:
         return [obj]
+
+    @property
+    def interaction_size(self) -> int:
+        """The length of s_I (`info["interaction"]`)."""
+        return int(self._graph_port.size())
 
     def _observation_size(self) -> int:
         return super()._observation_size() + GOAL_FEATURES
@@ -94,28 +121,59 @@ class _ObjectTaskEnv(DiagramEnv):
 
     def _place_task(self) -> None:
         self.start_pose, self.target = self._sample_goal()
-        plant = self.sim.plant
-        plant.SetFreeBodyPose(self._plant_context, self._object_body, self.start_pose)
-        source = self._targets.get_mutable_source_value(self._targets.GetMyMutableContextFromRoot(self._context))
-        source.set_value(self.target)
+        sim = self.sim
+        sim.plant.SetFreeBodyPose(self._plant_context, self._object_body, self.start_pose)
+        place_target_marker(sim.plant, self._plant_context, sim.objects, self._object, self.target)
+        self._set_target(self._context, self.target)
+        self._success_steps, self._succeeded = 0, False
+
+    def _set_target(self, context, target: np.ndarray) -> None:
+        source = self._targets.get_mutable_source_value(self._targets.GetMyMutableContextFromRoot(context))
+        source.set_value(np.asarray(target, dtype=float))
 
     def _extra_observation(self) -> np.ndarray:
-        plant, context = self.sim.plant, self._plant_context
-        root = plant.EvalBodyPoseInWorld(context, self._root)
-        heading = heading_rotation(root.rotation().matrix()).T
-        pose = plant.EvalBodyPoseInWorld(context, self._object_body)
-        rotation = heading @ pose.rotation().matrix()
-        return np.concatenate(
-            [
-                heading @ (pose.translation() - root.translation()),
-                rotation[:, 0],
-                rotation[:, 1],
-                heading @ (self.target - root.translation()),
-            ]
-        )
+        return self._goal_port.Eval(self._context)
+
+    def clip_interaction(self, clip_index: int, time_: float) -> np.ndarray:
+        """s_I at reference clip `clip_index`'s state at `time_` (its own
+        world frame), its object track placing the object and the track's
+        last position as the target; `InputError` if the clip carries no
+        track of this task's object."""
+        clip = self.clips[clip_index]
+        kind = self._object.kind
+        if kind not in clip.object_names:
+            raise InputError(f"{clip.source}: no {kind} track (objects: {clip.object_names or 'none'})")
+        k = clip.object_names.index(kind)
+        sim = self.sim
+        context = self._scratch_diagram
+        plant_context = sim.plant.GetMyMutableContextFromRoot(context)
+        playback = ClipPlayback(clip, loop=False)
+        set_robot_state(sim.plant, plant_context, sim.model, self.embodiment, playback, time_)
+        frame = min(int(round(time_ * clip.fps)), clip.num_frames - 1)
+        pose = clip.object_poses[frame, k]
+        sim.plant.SetFreeBodyPose(plant_context, self._object_body, RigidTransform(Quaternion(pose[3:]), pose[:3]))
+        self._set_target(context, clip.object_poses[-1, k, :3])
+        return self._graph_port.Eval(context).astype(np.float32)
+
+    def interaction_clips(self) -> list[int]:
+        """The indices of the reference clips with a track of this task's object."""
+        return [i for i, c in enumerate(self.clips) if self._object.kind in c.object_names]
+
+    def _count_success(self, info: dict, done: bool) -> None:
+        """Count consecutive steps in the task's end state into
+        `info["success_steps"]`; `info["success"]` is true (and stays true)
+        once they reach `hold_steps` (1 s)."""
+        self._success_steps = self._success_steps + 1 if done else 0
+        self._succeeded = self._succeeded or self._success_steps >= self.hold_steps
+        info["success"], info["success_steps"] = self._succeeded, self._success_steps
 
     def object_position(self) -> np.ndarray:
         return self.sim.plant.EvalBodyPoseInWorld(self._plant_context, self._object_body).translation()
+
+    def object_velocity(self) -> np.ndarray:
+        """The object's linear velocity (world, m/s)."""
+        velocity = self.sim.plant.EvalBodySpatialVelocityInWorld(self._plant_context, self._object_body)
+        return velocity.translational()
 
     def hand_positions(self) -> np.ndarray:
         plant = self.sim.plant
@@ -126,6 +184,7 @@ class _ObjectTaskEnv(DiagramEnv):
         interaction = self._graph_port.Eval(self._context)
         info["interaction"] = interaction.astype(np.float32)
         info["hand_contacts"] = interaction[-2:].copy()  # e_ho: left, right
+        info["success_steps"] = self._success_steps
         start = self.start_pose
         info["goal"] = {
             "start_position": start.translation().copy(),
@@ -142,7 +201,8 @@ class BoxCarryEnv(_ObjectTaskEnv):
     r_g = 0.2 exp(-2 |hands' midpoint - box|^2) (approach)
         + 0.3 [both hands touch the box and it is above `carry_height`] (carrying)
         + 0.5 exp(-0.5 |box - target|^2) (delivery);
-    `info["success"]` once the box is within 0.15 m of the target.
+    success: the box within `success_distance` (0.1 m) of the target and
+    resting there (slower than `rest_speed`, 0.1 m/s) for 1 s.
     """
 
     def __init__(
@@ -157,9 +217,13 @@ class BoxCarryEnv(_ObjectTaskEnv):
         target_bearing: tuple[float, float] = (-np.pi, np.pi),
         target_height: tuple[float, float] = (0.6, 1.0),
         carry_height: float = 0.3,
+        success_distance: float = 0.1,
+        rest_speed: float = 0.1,
         **options,
     ):
         where = type(self).__name__
+        self.success_distance = check_number(success_distance, "success_distance", where, low=0.0, high=10.0, unit="m")
+        self.rest_speed = check_number(rest_speed, "rest_speed", where, low=0.0, high=10.0, unit="m/s")
         self.ranges = {
             "start_distance": Range.of(start_distance, "start_distance", where, 0.0, 10.0),
             "start_bearing": Range.of(start_bearing, "start_bearing", where, -np.pi, np.pi),
@@ -169,7 +233,7 @@ class BoxCarryEnv(_ObjectTaskEnv):
             "target_height": Range.of(target_height, "target_height", where, 0.0, 3.0),
         }
         self.carry_height = check_number(carry_height, "carry_height", where, low=0.0, high=3.0, unit="m")
-        obj = SceneObject(kind="box", name="box", position=[0.6, 0.0, 0.9], held=True)
+        obj = SceneObject(kind="box", name="box", position=[0.6, 0.0, 0.9], held=True, target=[1.5, 0.0, 0.8])
         super().__init__(robot, hands, motions, obj, **options)
 
     def _sample_goal(self) -> tuple[RigidTransform, np.ndarray]:
@@ -186,19 +250,26 @@ class BoxCarryEnv(_ObjectTaskEnv):
         approach = np.exp(-2.0 * np.sum((hands.mean(axis=0) - box) ** 2))
         carrying = float(info["hand_contacts"].all() and box[2] > self.carry_height)
         delivery = np.exp(-0.5 * np.sum((box - self.target) ** 2))
-        info["success"] = bool(np.linalg.norm(box - self.target) < 0.15)
+        speed = np.linalg.norm(self.object_velocity())
+        there = np.linalg.norm(box - self.target) < self.success_distance and speed < self.rest_speed
+        self._count_success(info, bool(there))
         info["reward_terms"] = {"approach": approach, "carrying": carrying, "delivery": delivery}
         return float(0.2 * approach + 0.3 * carrying + 0.5 * delivery)
 
 
 class DrillGraspEnv(_ObjectTaskEnv):
-    """Pick a drill up from a table in front of the robot and hold it at a
-    target above the table.
+    """Walk to a drill on a table, grasp it, lift it and hold it up.
+
+    The table stands `table_distance` ahead (0.65 m: within reach; further
+    makes the robot walk first), the drill on it; the target is above the
+    drill's start.
 
     r_g = 0.3 exp(-5 |right hand - drill|^2) (reach)
         + 0.2 [the right hand touches the drill] (grasp)
         + 0.5 exp(-10 |drill - target|^2) (lift to the target);
-    `info["success"]` once the drill is within 0.05 m of the target.
+    success: the drill `lift_success` (0.1 m) or more above its start, a
+    hand touching it, for 1 s. The method's task uses the full hands
+    (`hands="full"`), whose finger primitives are what it is about.
     """
 
     def __init__(
@@ -209,15 +280,17 @@ class DrillGraspEnv(_ObjectTaskEnv):
         table_distance: float = 0.65,
         drill_offset: tuple[float, float] = (-0.15, 0.15),
         lift_height: tuple[float, float] = (0.15, 0.35),
+        lift_success: float = 0.1,
         **options,
     ):
         where = type(self).__name__
-        self.table_distance = check_number(table_distance, "table_distance", where, low=0.3, high=3.0, unit="m")
+        self.lift_success = check_number(lift_success, "lift_success", where, low=0.0, high=2.0, unit="m")
+        self.table_distance = check_number(table_distance, "table_distance", where, low=0.3, high=10.0, unit="m")
         self.ranges = {
             "drill_offset": Range.of(drill_offset, "drill_offset", where, -0.4, 0.4),
             "lift_height": Range.of(lift_height, "lift_height", where, 0.0, 1.0),
         }
-        obj = SceneObject(kind="drill", name="drill")
+        obj = SceneObject(kind="drill", name="drill", target=[0.5, 0.0, 1.0])
         super().__init__(robot, hands, motions, obj, **options)
 
     def _scene_objects(self, obj: SceneObject) -> list[SceneObject]:
@@ -238,6 +311,7 @@ class DrillGraspEnv(_ObjectTaskEnv):
         reach = np.exp(-5.0 * np.sum((right - drill) ** 2))
         grasp = float(info["hand_contacts"][1] > 0.5)
         lift = np.exp(-10.0 * np.sum((drill - self.target) ** 2))
-        info["success"] = bool(np.linalg.norm(drill - self.target) < 0.05)
+        lifted = drill[2] >= self.start_pose.translation()[2] + self.lift_success
+        self._count_success(info, bool(lifted and info["hand_contacts"].any()))
         info["reward_terms"] = {"reach": reach, "grasp": grasp, "lift": lift}
         return float(0.3 * reach + 0.2 * grasp + 0.5 * lift)
