@@ -91,3 +91,68 @@ def vector_env(num_envs: int = 4, history: int = 4) -> gym.vector.VectorEnv:
         [lambda: ToyAmpEnv(history) for _ in range(num_envs)],
         autoreset_mode=gym.vector.AutoresetMode.SAME_STEP,
     )
+
+
+TASK_ENV_ID = "tests/ToyTask-v0"
+TOUCH = 0.1  # the "hand" touches the "object" this close
+
+
+class ToyTaskEnv(ToyAmpEnv):
+    """The toy with a task: bring the first two coordinates to a goal drawn
+    per episode. The observation appends the goal relative to them (2);
+    `info["interaction"]` is s_I = (goal - position[:2], touching); the task
+    reward is exp(-4 |goal - position[:2]|^2); success is holding within
+    `TOUCH` of the goal for 10 steps."""
+
+    def __init__(self, history: int = 4, episode_steps: int = 60):
+        super().__init__(history, episode_steps)
+        self.observation_space = gym.spaces.Box(-np.inf, np.inf, (10,), np.float32)
+
+    def _observation(self) -> np.ndarray:
+        return np.concatenate([super()._observation(), self.goal - self.position[:2]]).astype(np.float32)
+
+    def _info(self) -> dict:
+        offset = self.goal - self.position[:2]
+        touching = float(np.linalg.norm(offset) < TOUCH)
+        info = super()._info()
+        info["interaction"] = np.concatenate([offset, [touching]]).astype(np.float32)
+        info["success"] = self.held >= 10
+        return info
+
+    def reset(self, *, seed=None, options=None):
+        gym.Env.reset(self, seed=seed)
+        self.goal = self.np_random.uniform(-1.0, 1.0, 2)
+        self.held = 0
+        return super().reset(options=options)
+
+    def step(self, action):
+        observation, _, terminated, truncated, _ = super().step(action)
+        offset = self.goal - self.position[:2]
+        self.held = self.held + 1 if np.linalg.norm(offset) < TOUCH else 0
+        reward = float(np.exp(-4.0 * offset @ offset))
+        return self._observation(), reward, terminated, truncated, self._info()
+
+
+gym.register(TASK_ENV_ID, entry_point=ToyTaskEnv)
+
+
+def task_vector_env(num_envs: int = 4, history: int = 4) -> gym.vector.VectorEnv:
+    return gym.vector.SyncVectorEnv(
+        [lambda: ToyTaskEnv(history) for _ in range(num_envs)],
+        autoreset_mode=gym.vector.AutoresetMode.SAME_STEP,
+    )
+
+
+def interaction_demonstrations(count: int = 20, frames: int = 40, seed: int = 0) -> list[np.ndarray]:
+    """s_I sequences of reaching a goal straight at full speed and holding it."""
+    rng = np.random.default_rng(seed)
+    sequences = []
+    for _ in range(count):
+        offset = rng.uniform(-1.0, 1.0, 2)
+        rows = []
+        for _ in range(frames):
+            rows.append([*offset, float(np.linalg.norm(offset) < TOUCH)])
+            step = min(np.linalg.norm(offset), SPEED / CONTROL_RATE)
+            offset = offset - step * offset / max(np.linalg.norm(offset), 1e-9)
+        sequences.append(np.array(rows, dtype=np.float32))
+    return sequences

@@ -110,6 +110,7 @@ class Agent:
         )
         self.counters = {"iteration": 0, "samples": 0, "episodes": 0, "falls": 0, "seconds": 0.0, "warm_started": False}
         self.episode_lengths: deque = deque(maxlen=200)
+        self.episode_successes: deque = deque(maxlen=200)
         self._reset_envs()
 
     def _action_std(self, action_size: int) -> list[float]:
@@ -195,6 +196,9 @@ class Agent:
         style = self.group_style_rewards(rollout.windows)
         out = {"style": self.combine(style), **{f"style/{g}": r for g, r in style.items()}}
         total = self.config.style.weight * out["style"]
+        if self.config.task_weight > 0 and rollout.task is not None:
+            out["task"] = rollout.task
+            total = total + self.config.task_weight * rollout.task
         if rollout.latents:
             encoder = self.group_encoder_rewards(rollout.windows, rollout.latents)
             out["encoder"] = self.combine(encoder)
@@ -217,6 +221,7 @@ class Agent:
         terminated = np.zeros((T, N), bool)
         ended = np.zeros((T, N), bool)
         style_terminated = np.zeros((T, N), bool)
+        task = np.zeros((T, N), np.float32)
         latents = {g: np.zeros((T, N, self.latents.size), np.float32) for g in self.latents.groups}
         windows = {g.name: np.zeros((T, N, self.demos.history, g.frame_size), np.float32) for g in self.groups}
         for t in range(T):
@@ -226,7 +231,8 @@ class Agent:
                 latents[g][t] = z
             action, log_prob = self.act(self._observations, current)
             actions[t], log_probs[t] = action, log_prob
-            observation, _, term, trunc, info = self.envs.step(action)
+            observation, reward, term, trunc, info = self.envs.step(action)
+            task[t] = reward
             done = term | trunc
             after = observation.copy()
             amp = {key: np.array(v) for key, v in info["amp"].items() if not key.startswith("_")}
@@ -249,13 +255,23 @@ class Agent:
                     self._low_style[cut] = 0
             next_observations[t] = after
             terminated[t], ended[t] = term, done
-            self._bookkeeping(term, done)
+            self._bookkeeping(term, done, info)
             self._observations = observation
             self.latents.step(done)
         values = self.values(observations, latents)
         next_values = self.values(next_observations, latents)
         return Rollout(
-            observations, latents, actions, log_probs, values, next_values, terminated, ended, windows, style_terminated
+            observations,
+            latents,
+            actions,
+            log_probs,
+            values,
+            next_values,
+            terminated,
+            ended,
+            windows,
+            style_terminated,
+            task,
         )
 
     def _reset_some(self, mask: np.ndarray, observation: np.ndarray) -> np.ndarray:
@@ -265,10 +281,13 @@ class Agent:
         observation[mask] = fresh[mask]
         return observation
 
-    def _bookkeeping(self, terminated: np.ndarray, ended: np.ndarray) -> None:
+    def _bookkeeping(self, terminated: np.ndarray, ended: np.ndarray, info: dict) -> None:
         self._steps += 1
+        success = info.get("final_info", {}).get("success")
         for i in np.flatnonzero(ended):
             self.episode_lengths.append(int(self._steps[i]))
+            if success is not None:  # a task's episodes
+                self.episode_successes.append(bool(np.asarray(success)[i]))
         self.counters["episodes"] += int(ended.sum())
         self.counters["falls"] += int(terminated.sum())
         self._steps[ended] = 0
@@ -436,6 +455,8 @@ class Agent:
             "style_terminations": int(rollout.style_terminated.sum()),
             "episode_length": float(np.mean(self.episode_lengths)) if self.episode_lengths else float("nan"),
         }
+        if self.episode_successes:
+            stats["success_rate"] = float(np.mean(self.episode_successes))
         stats |= {key: float(value.mean()) for key, value in rewards.items() if key != "total"}
         return stats
 
@@ -494,6 +515,7 @@ class Agent:
             "torch_rng": torch.get_rng_state(),
             "counters": dict(self.counters),
             "episode_lengths": list(self.episode_lengths),
+            "episode_successes": list(self.episode_successes),
         }
 
     def load_state_dict(self, state: dict) -> None:
@@ -510,6 +532,7 @@ class Agent:
         torch.set_rng_state(state["torch_rng"])
         self.counters = dict(state["counters"])
         self.episode_lengths = deque(state["episode_lengths"], maxlen=200)
+        self.episode_successes = deque(state.get("episode_successes", []), maxlen=200)
         self._reset_envs()
 
 

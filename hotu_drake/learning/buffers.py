@@ -22,6 +22,7 @@ class Rollout:
     ended: np.ndarray  # terminated or truncated
     windows: dict[str, np.ndarray]  # group -> (T, N, K, d): the AMP window after each step
     style_terminated: np.ndarray  # ended by the style-reward rule
+    task: np.ndarray | None = None  # (T, N) the environment's own reward (a task's r_g)
 
     @property
     def num_samples(self) -> int:

@@ -170,6 +170,9 @@ class TrainConfig:
     latent: LatentConfig = field(default_factory=LatentConfig)
     warm_start: WarmStartConfig = field(default_factory=WarmStartConfig)
     environment: EnvironmentConfig = field(default_factory=EnvironmentConfig)
+    # w_g: the weight of a task environment's own reward next to the style reward (`train skill`'s
+    # one-level methods, amp and pmp); 0 for behavior primitives, whose environment gives none.
+    task_weight: float = 0.0
     torch_threads: int = 2  # for the update; the rollout's per-step policy runs on one (measured: 2 threads made
     # the workers wait, 440 against 640 samples/s for H1 on two workers)
 
@@ -210,6 +213,7 @@ class TrainConfig:
         check_number(env.amp_history, "environment.amp_history", where, low=1, high=300, integer=True)
         check_number(env.style_termination, "environment.style_termination", where, low=0.0, high=1.0)
         check_number(env.style_patience, "environment.style_patience", where, low=1, high=10_000, integer=True)
+        check_number(self.task_weight, "task_weight", where, low=0.0, high=100.0)
         check_number(self.torch_threads, "torch_threads", where, low=1, high=256, integer=True)
         for name, selectors in s.groups.items():
             if not isinstance(selectors, list) or not all(isinstance(x, str) for x in selectors):

@@ -142,3 +142,50 @@ def _nearest_distance(frames: np.ndarray, reference: np.ndarray, chunk: int = 20
 
 def _nearest_index(frames: np.ndarray, reference: np.ndarray, chunk: int = 2048) -> np.ndarray:
     return np.concatenate([_pairwise(frames[i : i + chunk], reference).argmin(1) for i in range(0, len(frames), chunk)])
+
+
+TaskController = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+
+
+def evaluate_task(envs, controller: TaskController, episodes: int = 100, seed: int = 0, max_steps: int = 300) -> dict:
+    """A task policy over the first `episodes` episodes to end in `envs` (a
+    vector environment of a task, reset with `seed`: every episode draws its
+    own start and target). `controller(observations, interaction, started)`
+    gives the actions (`started` marks environments whose episode just
+    began). Figures: `success_rate` (the environment's `info["success"]` at
+    the episode's end), `normalized_return` (the task reward summed over the
+    episode over `max_steps`, so in [0, 1], a fall counting what it missed),
+    `fall_rate`, `mean_episode_steps`, and per episode its success, return
+    and index in the order the episodes ended (`episodes_detail`)."""
+    n = envs.num_envs
+    observations, info = envs.reset(seed=seed)
+    interaction = np.asarray(info["interaction"], dtype=np.float32).reshape(n, -1)
+    started = np.ones(n, bool)
+    running = np.zeros(n)
+    steps = np.zeros(n, dtype=np.int64)
+    detail = []
+    falls = 0
+    while len(detail) < episodes:
+        action = controller(observations, interaction, started)
+        observations, reward, terminated, truncated, info = envs.step(action)
+        interaction = np.asarray(info["interaction"], dtype=np.float32).reshape(n, -1)
+        running += reward
+        steps += 1
+        done = terminated | truncated
+        success = np.asarray(info.get("final_info", {}).get("success", np.zeros(n, bool)))
+        for i in np.flatnonzero(done):
+            if len(detail) < episodes:
+                falls += int(terminated[i])
+                detail.append(
+                    {"success": bool(success[i]), "return": float(running[i] / max_steps), "steps": int(steps[i])}
+                )
+        running[done], steps[done] = 0.0, 0
+        started = done
+    return {
+        "episodes": len(detail),
+        "success_rate": float(np.mean([d["success"] for d in detail])),
+        "normalized_return": float(np.mean([d["return"] for d in detail])),
+        "fall_rate": falls / len(detail),
+        "mean_episode_steps": float(np.mean([d["steps"] for d in detail])),
+        "episodes_detail": detail,
+    }
