@@ -35,7 +35,7 @@ from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant
 from pydrake.multibody.tree import ModelInstanceIndex
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
-from pydrake.systems.primitives import ConstantVectorSource, SharedPointerSystem
+from pydrake.systems.primitives import ConstantVectorSource, Multiplexer, SharedPointerSystem
 from pydrake.visualization import ApplyVisualizationConfig
 
 from hotu_drake import embodiment as embodiments
@@ -61,10 +61,11 @@ from hotu_drake.scenario import (
     PolicyCheckpoint,
     ReferenceTracking,
     Scenario,
+    SkillCheckpoint,
     StandingPose,
 )
 from hotu_drake.systems.base_command import AddPlanarBaseCommand
-from hotu_drake.systems.interaction_graph import AddInteractionGraph
+from hotu_drake.systems.interaction_graph import GOAL_SIZE, AddInteractionGraph, InteractionGraphSystem
 from hotu_drake.systems.latents import AddLatentSampler
 from hotu_drake.systems.object_holder import AddObjectHolder
 from hotu_drake.systems.observation import AddObservation, ObservationSystem
@@ -72,6 +73,7 @@ from hotu_drake.systems.pd import AddActionToTargets, AddPdControl
 from hotu_drake.systems.perturbation import AddPerturbation, add_perturbation_cubes, place_perturbation_cubes
 from hotu_drake.systems.policy import AddPolicy, load_policy
 from hotu_drake.systems.reference import AddReferenceMotion, ReferenceMotionSource
+from hotu_drake.systems.skill import AddSkillPolicy, load_skill_policy
 
 __all__ = ["Simulation", "build_simulation", "build_standing_simulation"]
 
@@ -124,6 +126,7 @@ class DiagramParts:
     embodiment: Embodiment
     scenario: Scenario
     clip: MotionClip | None
+    graph: InteractionGraphSystem | None = None  # with a task object
 
     @property
     def explicit(self) -> bool:
@@ -169,7 +172,7 @@ def build_simulation(
     if task and {"left_hand", "right_hand", "pelvis"} <= emb.key_bodies.keys():
         bodies = {o.instance_name: object_body(plant, objects, o) for o in task}
         targets = np.array([o.target or o.position for o in task], dtype=float)
-        graph = AddInteractionGraph(builder, plant, scene_graph, model, emb, bodies, targets)
+        graph = parts.graph = AddInteractionGraph(builder, plant, scene_graph, model, emb, bodies, targets)
         for name in ("interaction", "goal"):
             builder.ExportOutput(graph.GetOutputPort(name), name)
         builder.ExportOutput(graph.GetOutputPort("graph"), "interaction_graph")
@@ -258,8 +261,14 @@ def _(driver: ReferenceTracking, parts: DiagramParts) -> OutputPort:
 
 @add_driver.register
 def _(driver: PolicyCheckpoint, parts: DiagramParts) -> OutputPort:
-    network, meta = load_policy(parts.scenario.resolve(driver.checkpoint), parts.embodiment)
+    goal = GOAL_SIZE if parts.graph is not None else 0  # a one-level task policy also sees the goal
+    network, meta = load_policy(parts.scenario.resolve(driver.checkpoint), parts.embodiment, goal)
     observation = parts.observation().GetOutputPort("observation")
+    if network.config.observation_size != observation.size():
+        both = parts.builder.AddNamedSystem("policy_observation", Multiplexer([observation.size(), GOAL_SIZE]))
+        parts.builder.Connect(observation, both.get_input_port(0))
+        parts.builder.Connect(parts.graph.GetOutputPort("goal"), both.get_input_port(1))
+        observation = both.get_output_port()
     rate = parts.scenario.control_rate
     latents = None
     if network.config.latent_sizes and driver.latents == "prior":
@@ -271,6 +280,37 @@ def _(driver: PolicyCheckpoint, parts: DiagramParts) -> OutputPort:
     targets = AddActionToTargets(parts.builder, parts.embodiment, parts.explicit)
     parts.builder.Connect(policy.GetOutputPort("action"), targets.get_input_port())
     parts.builder.ExportOutput(policy.GetOutputPort("action"), "action")
+    return targets.get_output_port()
+
+
+@add_driver.register
+def _(driver: SkillCheckpoint, parts: DiagramParts) -> OutputPort:
+    scenario, emb, builder = parts.scenario, parts.embodiment, parts.builder
+    if parts.graph is None:
+        raise InputError(
+            "!SkillCheckpoint needs a task object (a free box or drill)", scenario.source or None, "objects"
+        )
+    skill, meta = load_skill_policy(scenario.resolve(driver.skill), emb)
+    llc_path = scenario.resolve(driver.llc)
+    network, _ = load_policy(llc_path, emb)
+    groups = dict.fromkeys(meta["llc_groups"], int(meta["latent_size"]))
+    if network.config.latent_sizes != groups:
+        raise InputError(
+            f"{llc_path}: its latents {network.config.latent_sizes} are not those the skill was trained over {groups}",
+            scenario.source or None,
+            "driver.llc",
+        )
+    observation = parts.observation().GetOutputPort("observation")
+    rate = scenario.control_rate
+    graph = parts.graph
+    latents = AddSkillPolicy(
+        builder, skill, meta, observation, graph.GetOutputPort("goal"), graph.GetOutputPort("interaction"), rate
+    )
+    policy = AddPolicy(builder, network, observation, rate, latents)
+    targets = AddActionToTargets(builder, emb, parts.explicit)
+    builder.Connect(policy.GetOutputPort("action"), targets.get_input_port())
+    builder.ExportOutput(policy.GetOutputPort("action"), "action")
+    builder.ExportOutput(latents.GetOutputPort("latents"), "latents")
     return targets.get_output_port()
 
 

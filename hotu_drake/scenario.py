@@ -88,6 +88,19 @@ class PolicyCheckpoint:
 
 
 @dataclass
+class SkillCheckpoint:
+    """A skill learned by `python -m hotu_drake.train skill`: its high level
+    (`skill`, the run's `policy.pt`) chooses the latents of the frozen
+    behavior controller (`llc`, that run's `policy.pt`), which sets the PD
+    targets at the scenario's `control_rate`. Needs a task object (a box or
+    a drill) in `objects`, with its `target`. Paths relative to the scenario
+    file."""
+
+    skill: str = ""
+    llc: str = ""
+
+
+@dataclass
 class ActionInput:
     """Normalised PD targets come from the diagram's exported `action`
     input port (how an environment drives the diagram); it holds the
@@ -101,7 +114,7 @@ class BaseTwist:
     standing pose. It drives the built-in PD (implicit controller)."""
 
 
-Driver = StandingPose | ReferenceTracking | PolicyCheckpoint | ActionInput | BaseTwist
+Driver = StandingPose | ReferenceTracking | PolicyCheckpoint | SkillCheckpoint | ActionInput | BaseTwist
 
 
 # --- the scenario --------------------------------------------------------------------
@@ -251,6 +264,13 @@ class Scenario:
                 raise InputError(f"policy checkpoint {self.driver.checkpoint!r} not found", source, "driver.checkpoint")
             check_choice(self.driver.latents, "driver.latents", ("prior", "zero"), source)
             check_number(self.driver.latent_seed, "driver.latent_seed", source, low=0, high=2**31 - 1, integer=True)
+        if isinstance(self.driver, SkillCheckpoint):
+            for name in ("skill", "llc"):
+                path = getattr(self.driver, name)
+                if not path or not self.resolve(path).is_file():
+                    raise InputError(f"{name} checkpoint {path!r} not found", source, f"driver.{name}")
+            if not any(o.is_task_object for o in self.objects):
+                raise InputError("!SkillCheckpoint needs a task object (a free box or drill)", source, "objects")
         if isinstance(self.driver, BaseTwist) and self.controller != "implicit":
             raise InputError("!BaseTwist drives the built-in PD (controller: implicit)", source, "driver")
         names = [o.instance_name for o in self.objects]

@@ -6,6 +6,8 @@
     python -m hotu_drake.train evaluate runs/h1_upper [--episodes 20]
     python -m hotu_drake.train plot runs/h1_upper runs/h1_upper_amp --out curves.png [--keys style,episode_length]
     python -m hotu_drake.train trace runs/h1_upper --out trace.png [--parts shoulder,elbow] [--seed 7]
+    python -m hotu_drake.train skill --task box_carry --llc runs/udh_dail --algo ours --steps 2000000 \
+        --out runs/udh_box_ours     (see hotu_drake.train_skill)
 
 `pretrain` builds the run's demonstrations from the robot's reference clips
 (on the Drake side, once), starts `--workers` environments
@@ -73,7 +75,7 @@ def main(argv: list[str] | None = None) -> int:
     pre.add_argument("--eval-episodes", type=int, default=20, help="evaluation episodes at the end (0: none)")
     ev = sub.add_parser("evaluate", help="evaluate a run's last checkpoint; writes its report.json")
     ev.add_argument("run", help="the run folder")
-    ev.add_argument("--episodes", type=int, default=20)
+    ev.add_argument("--episodes", type=int, help="episodes (default 20; 100 for a skill run)")
     ev.add_argument("--seed", type=int, default=1000)
     ev.add_argument("--workers", type=int, default=2)
     plot = sub.add_parser("plot", help="learning curves of runs on one figure (needs matplotlib)")
@@ -87,7 +89,12 @@ def main(argv: list[str] | None = None) -> int:
     trace.add_argument("--parts", default="shoulder,elbow,wrist,hip,knee", help="Table I parts to draw")
     trace.add_argument("--seed", type=int, default=7, help="the episode's seed (its drop and latents)")
     trace.add_argument("--min-range", type=float, default=15.0, help="draw joints the references move this far (deg)")
+    from hotu_drake import train_skill
+
+    train_skill.add_parser(sub)
     args = parser.parse_args(argv)
+    if args.command == "skill":
+        return train_skill.skill_command(args)
     if args.command == "trace":
         return trace_command(args)
     if args.command == "pretrain":
@@ -226,29 +233,35 @@ def pretrain(args) -> int:
     return 0
 
 
-def _train(agent, args, settings: dict, out: Path, log, progress) -> None:
+def _train(agent, args, settings: dict, out: Path, log, progress, save=None, shown=None) -> None:
+    """Iterate until `args.steps` samples, logging every iteration and
+    checkpointing (`save(agent, settings, out)`) about every
+    `CHECKPOINT_SECONDS` and at the end; the progress line shows
+    `shown(stats)` (default: each part group's style reward)."""
+    save = save or _save
+    shown = shown or (lambda stats: {g.name: stats.get(f"style/{g.name}", float("nan")) for g in agent.groups})
     every = args.checkpoint_every
     since = 0
-    style: dict[str, float] = {}
+    terms: dict[str, float] = {}
     while agent.counters["samples"] < args.steps:
         stats = agent.iteration()
         iteration = agent.counters["iteration"]
         log.write(iteration, stats)
-        style = {g.name: stats.get(f"style/{g.name}", float("nan")) for g in agent.groups}
-        progress.update(agent.counters["samples"], stats["samples_per_second"], style)
+        terms = shown(stats)
+        progress.update(agent.counters["samples"], stats["samples_per_second"], terms)
         if every is None:  # about CHECKPOINT_SECONDS of iterations, from the first one's pace
             every = max(1, round(CHECKPOINT_SECONDS / max(stats["rollout_seconds"] + stats["update_seconds"], 1e-3)))
         since += 1
         if since >= every:
-            _save(agent, settings, out)
+            save(agent, settings, out)
             since = 0
-    _save(agent, settings, out)
+    save(agent, settings, out)
     progress.update(
-        agent.counters["samples"], agent.counters["samples"] / max(agent.counters["seconds"], 1e-9), style, done=True
+        agent.counters["samples"], agent.counters["samples"] / max(agent.counters["seconds"], 1e-9), terms, done=True
     )
 
 
-def _save(agent, settings: dict, out: Path) -> None:
+def _save(agent, settings: dict, out: Path, extra_meta: dict | None = None) -> None:
     """The training checkpoint, and the policy alone next to it."""
     latent = agent.config.latent
     prior = {"size": latent.size, "resample_min": latent.resample_min, "resample_max": latent.resample_max}
@@ -261,6 +274,7 @@ def _save(agent, settings: dict, out: Path) -> None:
         "samples": agent.counters["samples"],
         "iteration": agent.counters["iteration"],
         "config": agent.config.to_dict(),
+        **(extra_meta or {}),
     }
     policy = agent.model.policy
     robot, hands, rate = settings["robot"], settings["hands"], agent.demos.control_rate
@@ -274,11 +288,16 @@ def _save(agent, settings: dict, out: Path) -> None:
 
 
 def evaluate_command(args) -> int:
+    from hotu_drake import train_skill
+
     run = _run_folder(args.run)
-    check_number(args.episodes, "--episodes", low=1, high=10_000, integer=True)
+    skill = train_skill.is_skill_run(run)
+    episodes = args.episodes or (train_skill.EVALUATION_EPISODES if skill else 20)
+    check_number(episodes, "--episodes", low=1, high=10_000, integer=True)
     if args.workers is not None:
         check_number(args.workers, "--workers", low=1, high=64, integer=True)
-    report = evaluate_run(run, args.episodes, args.seed, args.workers)
+    evaluate = train_skill.evaluate_skill_run if skill else evaluate_run
+    report = evaluate(run, episodes, args.seed, args.workers)
     print(json.dumps(report, indent=2))
     return 0
 
@@ -413,9 +432,12 @@ def trace_command(args) -> int:
     """One episode of the run's policy from a drop (as `evaluate`: the mean
     action, latents from the prior), its joints drawn against the
     references' for the joints the references move."""
+    from hotu_drake import train_skill
     from hotu_drake.learning.agent import Agent
 
     run, out = _run_folder(args.run), check_output_path(Path(args.out))
+    if train_skill.is_skill_run(run):
+        raise UserError(f"{run}: a skill run; trace draws a behavior run's joints (evaluate writes a skill's episode)")
     check_number(args.seed, "--seed", low=0, high=2**31 - 1, integer=True)
     plt = _pyplot("trace")
     settings, checkpoint, config = _read_run(run)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -87,7 +88,8 @@ def _cache_key(env: DiagramEnv) -> str:
     from hotu_drake.envs import base
     from hotu_drake.systems import observation
 
-    for source in (__file__, base.__file__, observation.__file__):  # the code that makes the arrays
+    task = sys.modules[type(env).__module__].__file__  # a task environment's own observation
+    for source in (__file__, base.__file__, observation.__file__, task):  # the code that makes the arrays
         with open(source, "rb") as f:
             digest.update(f.read())
     description = {

@@ -140,20 +140,43 @@ class _ObjectTaskEnv(DiagramEnv):
         last position as the target; `InputError` if the clip carries no
         track of this task's object."""
         clip = self.clips[clip_index]
-        kind = self._object.kind
-        if kind not in clip.object_names:
-            raise InputError(f"{clip.source}: no {kind} track (objects: {clip.object_names or 'none'})")
-        k = clip.object_names.index(kind)
+        if self._object.kind not in clip.object_names:
+            raise InputError(f"{clip.source}: no {self._object.kind} track (objects: {clip.object_names or 'none'})")
+        return self._graph_port.Eval(self._clip_frame(clip_index, time_)).astype(np.float32)
+
+    def clip_observation(self, clip_index: int, time_: float) -> np.ndarray:
+        """The task observation at a reference clip's state (for behavior
+        cloning): the robot's, then the goal at that frame if the clip
+        carries a track of the object (zeros if not)."""
+        robot = super().clip_observation(clip_index, time_)[: self._observer.observation_size]
+        goal = np.zeros(GOAL_FEATURES)
+        if self._object.kind in self.clips[clip_index].object_names:
+            goal = self._goal_port.Eval(self._clip_frame(clip_index, time_))
+        return np.concatenate([robot, goal]).astype(np.float32)
+
+    def _clip_frame(self, clip_index: int, time_: float):
+        """The scratch diagram context at the clip's frame (robot, object, target)."""
+        clip = self.clips[clip_index]
         sim = self.sim
         context = self._scratch_diagram
         plant_context = sim.plant.GetMyMutableContextFromRoot(context)
-        playback = ClipPlayback(clip, loop=False)
-        set_robot_state(sim.plant, plant_context, sim.model, self.embodiment, playback, time_)
-        frame = min(int(round(time_ * clip.fps)), clip.num_frames - 1)
-        pose = clip.object_poses[frame, k]
-        sim.plant.SetFreeBodyPose(plant_context, self._object_body, RigidTransform(Quaternion(pose[3:]), pose[:3]))
-        self._set_target(context, clip.object_poses[-1, k, :3])
-        return self._graph_port.Eval(context).astype(np.float32)
+        set_robot_state(sim.plant, plant_context, sim.model, self.embodiment, ClipPlayback(clip, loop=False), time_)
+        if self._object.kind in clip.object_names:
+            k = clip.object_names.index(self._object.kind)
+            frame = min(int(round(time_ * clip.fps)), clip.num_frames - 1)
+            pose = clip.object_poses[frame, k]
+            sim.plant.SetFreeBodyPose(plant_context, self._object_body, RigidTransform(Quaternion(pose[3:]), pose[:3]))
+            self._set_target(context, clip.object_poses[-1, k, :3])
+        return context
+
+    def interaction_sequences(self) -> list[np.ndarray]:
+        """s_I of every reference clip with a track of the object, at the
+        control rate: the interaction discriminator's demonstrations."""
+        sequences = []
+        for index in self.interaction_clips():
+            times = np.arange(int(np.floor(self.clips[index].duration / self.control_period + 1e-9)) + 1)
+            sequences.append(np.array([self.clip_interaction(index, t * self.control_period) for t in times]))
+        return sequences
 
     def interaction_clips(self) -> list[int]:
         """The indices of the reference clips with a track of this task's object."""

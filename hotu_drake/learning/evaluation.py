@@ -156,10 +156,12 @@ def evaluate_task(envs, controller: TaskController, episodes: int = 100, seed: i
     the episode's end), `normalized_return` (the task reward summed over the
     episode over `max_steps`, so in [0, 1], a fall counting what it missed),
     `fall_rate`, `mean_episode_steps`, and per episode its success, return
-    and index in the order the episodes ended (`episodes_detail`)."""
+    and, where the environment gives `info["goal"]`, its start and target,
+    in the order the episodes ended (`episodes_detail`)."""
     n = envs.num_envs
     observations, info = envs.reset(seed=seed)
     interaction = np.asarray(info["interaction"], dtype=np.float32).reshape(n, -1)
+    goals = [_goal(info, i) for i in range(n)]
     started = np.ones(n, bool)
     running = np.zeros(n)
     steps = np.zeros(n, dtype=np.int64)
@@ -176,9 +178,9 @@ def evaluate_task(envs, controller: TaskController, episodes: int = 100, seed: i
         for i in np.flatnonzero(done):
             if len(detail) < episodes:
                 falls += int(terminated[i])
-                detail.append(
-                    {"success": bool(success[i]), "return": float(running[i] / max_steps), "steps": int(steps[i])}
-                )
+                episode = {"success": bool(success[i]), "return": float(running[i] / max_steps), "steps": int(steps[i])}
+                detail.append(episode | ({"goal": goals[i]} if goals[i] else {}))
+            goals[i] = _goal(info, i)  # the next episode's, drawn at the same-step reset
         running[done], steps[done] = 0.0, 0
         started = done
     return {
@@ -189,3 +191,11 @@ def evaluate_task(envs, controller: TaskController, episodes: int = 100, seed: i
         "mean_episode_steps": float(np.mean([d["steps"] for d in detail])),
         "episodes_detail": detail,
     }
+
+
+def _goal(info: dict, index: int) -> dict:
+    """Environment `index`'s `info["goal"]` as plain numbers ({} without one)."""
+    goal = info.get("goal")
+    if not isinstance(goal, dict):
+        return {}
+    return {k: np.asarray(v[index]).tolist() for k, v in goal.items() if not k.startswith("_")}

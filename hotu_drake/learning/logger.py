@@ -70,11 +70,11 @@ def _tensorboard(folder: Path, resume_iteration: int | None):
 
 
 class Progress:
-    """One status line: samples, rate, the mean style reward per group, ETA.
+    """One status line: samples, rate, the mean style reward per group (or other `label`led terms), ETA.
     Rewritten in place on a terminal; a full line every `every` seconds otherwise."""
 
-    def __init__(self, total: int, every: float = 30.0):
-        self.total, self.every = total, every
+    def __init__(self, total: int, every: float = 30.0, label: str = "style"):
+        self.total, self.every, self.label = total, every, label
         self.tty = sys.stderr.isatty()
         self._last = 0.0
 
@@ -87,7 +87,7 @@ class Progress:
         groups = " ".join(f"{g} {r:.2f}" for g, r in style.items())
         line = (
             f"samples {_count(samples)}/{_count(self.total)} ({100 * samples / self.total:.0f}%) | "
-            f"{rate:.0f}/s | style {groups} | ETA {_duration(left)}"
+            f"{rate:.0f}/s | {self.label} {groups} | ETA {_duration(left)}"
         )
         end = "\n" if (done or not self.tty) else ""
         print(("\r" if self.tty else "") + line, end=end, file=sys.stderr, flush=True)

@@ -38,13 +38,16 @@ def policy_for(embodiment: Embodiment, latent_size: int = LATENT_SIZE, seed: int
     return PolicyNetwork(config)
 
 
-def load_policy(path: str | Path, embodiment: Embodiment) -> tuple[PolicyNetwork, dict]:
+def load_policy(path: str | Path, embodiment: Embodiment, goal_size: int = 0) -> tuple[PolicyNetwork, dict]:
     """The network of a checkpoint and its metadata, checked against
-    `embodiment`; a file that does not fit raises `UserError` naming it."""
+    `embodiment` (a network that also observes a task's goal of `goal_size`
+    numbers fits too); a file that does not fit raises `UserError` naming it."""
     try:
         network, meta = load_checkpoint(path)
     except CheckpointError as error:
         raise UserError(str(error)) from None
+    if meta.get("meta", {}).get("kind") == "skill":
+        raise UserError(f"{path}: a skill's high level, not a controller (a scenario runs it with !SkillCheckpoint)")
     if (meta.get("embodiment"), meta.get("hands")) != (embodiment.name, embodiment.hands):
         raise UserError(
             f"{path}: the policy drives {meta.get('embodiment')} hands={meta.get('hands')}, "
@@ -53,7 +56,7 @@ def load_policy(path: str | Path, embodiment: Embodiment) -> tuple[PolicyNetwork
     if network.config.action_size != len(embodiment.joint_names):
         actions, joints = network.config.action_size, len(embodiment.joint_names)
         raise UserError(f"{path}: the policy has {actions} actions, {embodiment.name} has {joints} joints")
-    if network.config.observation_size != observation_size(embodiment):
+    if network.config.observation_size not in {observation_size(embodiment), observation_size(embodiment) + goal_size}:
         size, expected = network.config.observation_size, observation_size(embodiment)
         raise UserError(f"{path}: the policy observes {size} numbers, {embodiment.name}'s observation has {expected}")
     return network, meta
