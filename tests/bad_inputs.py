@@ -864,6 +864,79 @@ def _(tmp):
     return "hotu_drake.train", ["trace", str(tmp), "--out", str(tmp / "trace.png")]
 
 
+SKILL = ["skill", "--task", "box_carry", "--steps", "16", "--workers", "1"]
+
+
+def _controller_run(tmp: Path, robot: str = "udh", algo: str = "dail") -> Path:
+    """A behavior run folder of `robot` whose checkpoint a skill could drive (tiny networks)."""
+    import numpy as np
+
+    from hotu_drake.learning.checkpoint import save_checkpoint
+    from hotu_drake.learning.config import preset
+    from hotu_drake.learning.low_level import _style_networks
+    from hotu_drake.learning.parts import PartGroup
+    from hotu_drake.learning.policy import PolicyConfig, PolicyNetwork
+
+    run = tmp / "llc"
+    run.mkdir()
+    config = preset(algo)
+    config.latent.size, config.networks.discriminator_hidden = 4, (4,)
+    groups = [PartGroup("lower_body", {"root": np.array([0, 1])})]
+    meta = {"algo": algo, "groups": [g.to_dict() for g in groups], "config": config.to_dict()}
+    policy = PolicyNetwork(PolicyConfig(5, 2, {"lower_body": 4}, (4,)))
+    state = {"style": _style_networks(groups, config).state_dict()}
+    (run / "run.json").write_text(json.dumps({"robot": robot, "hands": "none", "algo": algo}))
+    save_checkpoint(run / "checkpoint.pt", policy, robot, "none", meta, state=state)
+    return run
+
+
+SKILL_CLI = {
+    "task_unknown": (["skill", "--task", "juggle", "--steps", "16", "--algo", "amp"], "juggle"),
+    "llc_missing": ([*SKILL, "--algo", "ours"], "--llc"),
+    "algo_unknown": ([*SKILL, "--algo", "hrl"], "hrl"),
+}
+for _name, (_argv, _expect) in SKILL_CLI.items():
+
+    def _make(tmp, argv=_argv):
+        return "hotu_drake.train", [*argv, "--out", str(tmp / "run")]
+
+    case(f"skill_{_name}", "cli", _expect)(_make)
+
+
+@case("skill_llc_for_a_one_level_method", "cli", "one level")
+def _(tmp):
+    return "hotu_drake.train", [*SKILL, "--algo", "amp", "--llc", str(_controller_run(tmp)), "--out", str(tmp / "run")]
+
+
+@case("skill_llc_of_another_robot", "cli", "a controller of udh")
+def _(tmp):
+    llc = str(_controller_run(tmp))
+    return "hotu_drake.train", [*SKILL, "--robot", "h1", "--llc", llc, "--out", str(tmp / "run")]
+
+
+@case("skill_llc_of_another_method", "cli", "a dail controller")
+def _(tmp):
+    return "hotu_drake.train", [*SKILL, "--algo", "ase", "--llc", str(_controller_run(tmp)), "--out", str(tmp / "run")]
+
+
+@case("skill_llc_not_a_behavior_run", "cli", "not a behavior run")
+def _(tmp):
+    run = _run_folder(tmp, "udh", lambda d: d.update(kind="training", state={}))
+    return "hotu_drake.train", [*SKILL, "--llc", str(run), "--out", str(tmp / "skill")]
+
+
+@case("skill_config_hold_steps_zero", "cli", "hold_steps")
+def _(tmp):
+    config = write(tmp, "skill.yaml", "high_level: {hold_steps: 0}\n")
+    return "hotu_drake.train", [*SKILL, "--algo", "amp", "--config", str(config), "--out", str(tmp / "run")]
+
+
+@case("skill_task_keyword_unknown", "cli", "environment.task")
+def _(tmp):
+    config = write(tmp, "skill.yaml", "environment: {task: {start_distanse: [1.0, 2.0]}}\n")
+    return "hotu_drake.train", [*SKILL, "--algo", "amp", "--config", str(config), "--out", str(tmp / "run")]
+
+
 def corpus_summary() -> dict[str, int]:
     """How many cases of each family (the README records it)."""
     families: dict[str, int] = {}

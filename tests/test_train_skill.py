@@ -1,0 +1,157 @@
+"""`python -m hotu_drake.train skill` on BoxCarry-v0 with tiny configurations:
+the run folder, the two-level scenario it deploys into, the diagram's
+actions against the two networks called directly, and the held latents."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import torch
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import Adder, ConstantVectorSource, Sine
+
+from hotu_drake.learning.checkpoint import load_checkpoint, read_checkpoint
+from hotu_drake.learning.skill_agent import high_level_input, to_latents
+from hotu_drake.scenario import load_scenario
+from hotu_drake.systems.skill import SkillPolicySystem
+from hotu_drake.train import main
+
+BEHAVIOR = """\
+ppo: {horizon: 32, minibatch_size: 32, epochs: 2}
+networks: {policy_hidden: [32, 32], critic_hidden: [32, 32], discriminator_hidden: [32, 32]}
+style: {batch_size: 32, updates: 1, replay_size: 1000}
+latent: {size: 4}
+warm_start: {epochs: 2}
+torch_threads: 1
+"""
+SKILL = """\
+ppo: {horizon: 8, minibatch_size: 16, epochs: 2}
+high_level: {hold_steps: 3, hidden: [32], critic_hidden: [32]}
+interaction: {hidden: [32], batch_size: 32, replay_size: 1000}
+one_level:
+  ppo: {horizon: 32, minibatch_size: 32, epochs: 2}
+  networks: {policy_hidden: [32, 32], critic_hidden: [32, 32], discriminator_hidden: [32, 32]}
+  style: {batch_size: 32, updates: 1, replay_size: 1000}
+  warm_start: {epochs: 2}
+  torch_threads: 1
+torch_threads: 1
+"""
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """A tiny UDH behavior run (DAIL), a tiny `ours` skill over it and a tiny `amp` one, each evaluated."""
+    folder = tmp_path_factory.mktemp("skill")
+    (folder / "behavior.yaml").write_text(BEHAVIOR)
+    (folder / "skill.yaml").write_text(SKILL)
+    llc = folder / "udh_dail"
+    common = ["--steps", "48", "--workers", "1"]
+    assert main(["pretrain", "--robot", "udh", "--motions", "walk,box_carry", *common, "--out", str(llc),
+                 "--config", str(folder / "behavior.yaml"), "--eval-episodes", "0"]) == 0  # fmt: skip
+    out = {"llc": llc}
+    for algo in ("ours", "amp"):
+        out[algo] = folder / f"box_{algo}"
+        extra = ["--llc", str(llc)] if algo == "ours" else []
+        argv = ["skill", "--task", "box_carry", "--algo", algo, *extra, *common, "--out", str(out[algo])]
+        assert main([*argv, "--config", str(folder / "skill.yaml"), "--eval-episodes", "2"]) == 0
+    return out
+
+
+def test_a_skill_run_writes_its_folder_with_every_reward_term(runs):
+    run = runs["ours"]
+    assert {"run.json", "config.yaml", "metrics.jsonl", "checkpoint.pt", "policy.pt", "report.json"} <= {
+        p.name for p in run.iterdir()
+    }
+    lines = [json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines()]
+    assert lines[-1]["samples"] == 48  # 8 high-level steps x 3 control steps, twice
+    for key in ("reward/task", "reward/interaction", "reward/style", "interaction_discriminator/accuracy_demo"):
+        assert np.isfinite(lines[-1][key]), key
+    report = json.loads((run / "report.json").read_text())
+    evaluation = report["evaluation"]
+    assert evaluation["episodes"] == 2 and 0.0 <= evaluation["normalized_return"] <= 1.0
+    assert evaluation["success_rate"] in (0.0, 0.5, 1.0)
+    checkpoint = read_checkpoint(run / "checkpoint.pt", kind="training")
+    meta = checkpoint["meta"]
+    assert meta["kind"] == "skill" and meta["hold_steps"] == 3 and meta["llc"] == str(runs["llc"].resolve())
+    assert meta["llc_groups"] == ["lower_body", "torso", "left_arm", "right_arm"] and meta["interaction_size"] == 11
+    amp = json.loads((runs["amp"] / "report.json").read_text())
+    assert amp["algo"] == "amp" and amp["llc"] is None and amp["evaluation"]["episodes"] == 2
+    amp_lines = [json.loads(line) for line in (runs["amp"] / "metrics.jsonl").read_text().splitlines()]
+    assert np.isfinite(amp_lines[-1]["task"]) and np.isfinite(amp_lines[-1]["style"])
+
+
+@pytest.mark.parametrize("algo", ["ours", "amp"])
+def test_the_best_episode_scenario_loads_the_checkpoints_and_runs(runs, algo):
+    from hotu_drake.diagrams import build_simulation
+
+    scenario = load_scenario(str(runs[algo] / "best_episode.yaml"))
+    scenario.duration = 0.3
+    sim = build_simulation(scenario)
+    sim.simulator.AdvanceTo(0.3)
+    assert np.all(np.isfinite(sim.plant.GetPositions(sim.plant_context())))
+
+
+def test_the_two_level_diagram_acts_as_the_two_networks_called_directly(runs):
+    from hotu_drake.diagrams import build_simulation
+
+    scenario = load_scenario(str(runs["ours"] / "best_episode.yaml"))
+    sim = build_simulation(scenario)
+    context = sim.simulator.get_context()
+    observation, goal, interaction = (sim.output(name) for name in ("observation", "goal", "interaction"))
+    skill, data = load_checkpoint(runs["ours"] / "policy.pt")
+    llc, _ = load_checkpoint(runs["llc"] / "policy.pt")
+    inputs = high_level_input(np.concatenate([observation, goal])[None], interaction[None])
+    with torch.no_grad():
+        raw = skill.mean(torch.as_tensor(inputs)).numpy()
+        latents = to_latents(raw, data["meta"]["llc_groups"], data["meta"]["latent_size"])
+        expected = llc(torch.as_tensor(observation, dtype=torch.float32), {g: torch.as_tensor(z[0]) for g, z in
+                       latents.items()}).numpy()  # fmt: skip
+    np.testing.assert_allclose(sim.output("latents"), np.concatenate([latents[g][0] for g in latents]), atol=1e-6)
+    sim.simulator.AdvanceTo(1e-4)  # the control events at t = 0 act on the state at t = 0
+    np.testing.assert_allclose(sim.diagram.GetOutputPort("action").Eval(context), expected, atol=1e-5)
+
+
+@pytest.mark.parametrize("hold", [1, 3])
+def test_the_skill_system_holds_its_latents_for_k_control_periods(runs, hold):
+    skill, data = load_checkpoint(runs["ours"] / "policy.pt")
+    meta = data["meta"]
+    obs_size = skill.config.observation_size - 12 - meta["interaction_size"]
+    builder = DiagramBuilder()
+    system = builder.AddSystem(
+        SkillPolicySystem(skill, meta["llc_groups"], meta["latent_size"], hold, obs_size, meta["interaction_size"])
+    )
+    # Observations that change all the time (within the normaliser's range), so every choice differs.
+    mean, std = (getattr(skill.normalizer, name)[:obs_size].numpy() for name in ("mean", "std"))
+    moving = builder.AddSystem(Sine(std, np.full(obs_size, 7.0), np.arange(obs_size, dtype=float)))
+    offset = builder.AddSystem(ConstantVectorSource(mean))
+    observation = builder.AddSystem(Adder(2, obs_size))
+    builder.Connect(moving.get_output_port(0), observation.get_input_port(0))
+    builder.Connect(offset.get_output_port(), observation.get_input_port(1))
+    builder.Connect(observation.get_output_port(), system.GetInputPort("observation"))
+    for name, size in (("goal", 12), ("interaction", meta["interaction_size"])):
+        builder.Connect(builder.AddSystem(ConstantVectorSource(np.full(size, 0.3))).get_output_port(),
+                        system.GetInputPort(name))  # fmt: skip
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    held = []
+    for n in range(7):
+        simulator.AdvanceTo(n / 30.0 + 1e-6)
+        state = system.GetMyContextFromRoot(simulator.get_context()).get_discrete_state_vector().value()
+        held.append(state[:-1].copy())
+    changes = [n for n in range(1, 7) if not np.allclose(held[n], held[n - 1])]
+    assert changes == list(range(hold, 7, hold))
+    for z in np.split(held[0], len(meta["llc_groups"])):
+        assert np.linalg.norm(z) == pytest.approx(1.0, abs=1e-5)
+
+
+def test_a_skill_run_resumes_with_its_counters(runs, tmp_path):
+    import shutil
+
+    run = tmp_path / "box_ours"
+    shutil.copytree(runs["ours"], run)
+    assert main(["skill", "--out", str(run), "--steps", "72", "--resume", "--eval-episodes", "0"]) == 0
+    lines = [json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines()]
+    assert [line["samples"] for line in lines] == [24, 48, 72]
