@@ -1,6 +1,6 @@
 """`python -m hotu_drake.train skill` on BoxCarry-v0 with tiny configurations:
-the run folder, the two-level scenario it deploys into, the diagram's
-actions against the two networks called directly, and the held latents."""
+the run folder, the two-level scenario it deploys into, and the diagram's
+actions against the two networks called directly."""
 
 from __future__ import annotations
 
@@ -9,14 +9,10 @@ import json
 import numpy as np
 import pytest
 import torch
-from pydrake.systems.analysis import Simulator
-from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import Adder, ConstantVectorSource, Sine
 
 from hotu_drake.learning.checkpoint import load_checkpoint, read_checkpoint
 from hotu_drake.learning.skill_agent import high_level_input, to_latents
 from hotu_drake.scenario import load_scenario
-from hotu_drake.systems.skill import SkillPolicySystem
 from hotu_drake.train import main
 
 BEHAVIOR = """\
@@ -112,39 +108,6 @@ def test_the_two_level_diagram_acts_as_the_two_networks_called_directly(runs):
     np.testing.assert_allclose(sim.output("latents"), np.concatenate([latents[g][0] for g in latents]), atol=1e-6)
     sim.simulator.AdvanceTo(1e-4)  # the control events at t = 0 act on the state at t = 0
     np.testing.assert_allclose(sim.diagram.GetOutputPort("action").Eval(context), expected, atol=1e-5)
-
-
-@pytest.mark.parametrize("hold", [1, 3])
-def test_the_skill_system_holds_its_latents_for_k_control_periods(runs, hold):
-    skill, data = load_checkpoint(runs["ours"] / "policy.pt")
-    meta = data["meta"]
-    obs_size = skill.config.observation_size - 12 - meta["interaction_size"]
-    builder = DiagramBuilder()
-    system = builder.AddSystem(
-        SkillPolicySystem(skill, meta["llc_groups"], meta["latent_size"], hold, obs_size, meta["interaction_size"])
-    )
-    # Observations that change all the time (within the normaliser's range), so every choice differs.
-    mean, std = (getattr(skill.normalizer, name)[:obs_size].numpy() for name in ("mean", "std"))
-    moving = builder.AddSystem(Sine(std, np.full(obs_size, 7.0), np.arange(obs_size, dtype=float)))
-    offset = builder.AddSystem(ConstantVectorSource(mean))
-    observation = builder.AddSystem(Adder(2, obs_size))
-    builder.Connect(moving.get_output_port(0), observation.get_input_port(0))
-    builder.Connect(offset.get_output_port(), observation.get_input_port(1))
-    builder.Connect(observation.get_output_port(), system.GetInputPort("observation"))
-    for name, size in (("goal", 12), ("interaction", meta["interaction_size"])):
-        builder.Connect(builder.AddSystem(ConstantVectorSource(np.full(size, 0.3))).get_output_port(),
-                        system.GetInputPort(name))  # fmt: skip
-    diagram = builder.Build()
-    simulator = Simulator(diagram)
-    held = []
-    for n in range(7):
-        simulator.AdvanceTo(n / 30.0 + 1e-6)
-        state = system.GetMyContextFromRoot(simulator.get_context()).get_discrete_state_vector().value()
-        held.append(state[:-1].copy())
-    changes = [n for n in range(1, 7) if not np.allclose(held[n], held[n - 1])]
-    assert changes == list(range(hold, 7, hold))
-    for z in np.split(held[0], len(meta["llc_groups"])):
-        assert np.linalg.norm(z) == pytest.approx(1.0, abs=1e-5)
 
 
 def test_a_skill_run_resumes_with_its_counters(runs, tmp_path):

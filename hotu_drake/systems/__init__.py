@@ -5,6 +5,7 @@
 | `pd` | `SaturatedPdController` (and the action -> target gain) | `AddPdControl`, `AddActionToTargets` |
 | `observation` | `ObservationSystem` | `AddObservation` |
 | `policy` | `PolicySystem` | `AddPolicy` |
+| `skill` | `SkillPolicySystem` (a skill's high level) | `AddSkillPolicy` |
 | `reference` | `ReferenceMotionSource` | `AddReferenceMotion` |
 | `interaction_graph` | `InteractionGraphSystem` | `AddInteractionGraph` |
 | `perturbation` | `Perturbation` (thrown cubes) | `AddPerturbation` |
