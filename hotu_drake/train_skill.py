@@ -52,6 +52,8 @@ from hotu_drake.train import CHECKPOINT_SECONDS, _cores, _motions, _save, _train
 
 # The motions each task environment learns from by default: its human-object demonstration and a walk.
 TASK_MOTIONS = {"box_carry": ["walk", "box_carry"], "drill_grasp": ["walk", "drill_grasp"]}
+# The hands a one-level method's robot has by default: the drill grasp is about the fingers.
+TASK_HANDS = {"box_carry": "none", "drill_grasp": "full"}
 # Which behavior controller each two-level method drives.
 CONTROLLER_ALGO = {"ours": "dail", "ase": "ase"}
 EVALUATION_EPISODES = 100
@@ -61,7 +63,7 @@ def add_parser(sub) -> None:
     skill = sub.add_parser("skill", help="train a loco-manipulation skill (two-level over --llc, or one-level)")
     skill.add_argument("--task", help=f"{' | '.join(TASKS)}")
     skill.add_argument("--robot", help=f"the embodiment ({', '.join(EMBODIMENT_NAMES)}; default: the --llc's)")
-    skill.add_argument("--hands", help="full or none (default: the --llc's, else none)")
+    skill.add_argument("--hands", help="full or none (default: the --llc's, else none; full for drill_grasp)")
     skill.add_argument("--llc", help="the behavior run a two-level method drives (a run folder of train pretrain)")
     skill.add_argument("--algo", help=f"{' | '.join(SKILL_ALGORITHMS)} (default ours)")
     skill.add_argument("--motions", help="the demonstrations (default: the task's, e.g. walk,box_carry)")
@@ -152,7 +154,7 @@ def _settings(args) -> tuple[dict, SkillConfig]:
         if args.llc:
             raise UserError(f"--llc: {algo} is one level (its policy sets the PD targets); --llc is for ours and ase")
         robot = check_choice(args.robot or "udh", "--robot", EMBODIMENT_NAMES)
-        hands = check_choice(args.hands or "none", "--hands", HANDS_VARIANTS)
+        hands = check_choice(args.hands or TASK_HANDS[task], "--hands", HANDS_VARIANTS)
     settings = {
         "command": "skill",
         "task": task,

@@ -291,8 +291,9 @@ class DrillGraspEnv(_ObjectTaskEnv):
         + 0.2 [the right hand touches the drill] (grasp)
         + 0.5 exp(-10 |drill - target|^2) (lift to the target);
     success: the drill `lift_success` (0.1 m) or more above its start, a
-    hand touching it, for 1 s. The method's task uses the full hands
-    (`hands="full"`), whose finger primitives are what it is about.
+    hand touching it, for 1 s. With the full hands by default (on the
+    environment's own scenario): the finger primitives are what the
+    method's task is about.
     """
 
     def __init__(
@@ -314,6 +315,8 @@ class DrillGraspEnv(_ObjectTaskEnv):
             "lift_height": Range.of(lift_height, "lift_height", where, 0.0, 1.0),
         }
         obj = SceneObject(kind="drill", name="drill", target=[0.5, 0.0, 1.0])
+        if hands is None and options.get("scenario") is None:
+            hands = "full"
         super().__init__(robot, hands, motions, obj, **options)
 
     def _scene_objects(self, obj: SceneObject) -> list[SceneObject]:
