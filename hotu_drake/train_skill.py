@@ -23,7 +23,7 @@ turns into a Meshcat replay.
 
 from __future__ import annotations
 
-import dataclasses
+import copy
 import functools
 import json
 import platform
@@ -232,7 +232,7 @@ def _vector_env(settings: dict, config: SkillConfig, workers: int, ray: str | No
 
 def _one_level_config(config: SkillConfig):
     """The one-level methods' own configuration, with eq. (3)'s weights (no D_I)."""
-    one = dataclasses.replace(config.one_level)
+    one = copy.deepcopy(config.one_level)
     one.task_weight, one.style.weight = config.reward.task, config.reward.style
     one.environment.termination_height = config.environment.termination_height
     one.environment.reference_init_probability = config.environment.reference_init_probability

@@ -153,10 +153,13 @@ class SkillAgent:
 
     # -- one iteration ---------------------------------------------------------------
 
-    def control_step_rewards(self, info_amp: dict, pairs: np.ndarray, task: np.ndarray) -> dict[str, np.ndarray]:
-        """Eq. (3)'s terms of one control step of every environment."""
-        style = self.llc.style_reward(info_amp) if self.config.reward.style > 0 else np.zeros(self.num_envs)
-        interaction = self.judge.reward(pairs) if self.judge is not None else np.zeros(self.num_envs)
+    def control_step_rewards(self, amp: dict, pairs: np.ndarray, task: np.ndarray) -> dict[str, np.ndarray]:
+        """Eq. (3)'s terms of control steps (any leading shape): the task
+        reward, D_I's on the (s_I, s_I') `pairs`, the controller's judges'
+        on the `amp` windows."""
+        zeros = np.zeros(task.shape, np.float32)
+        style = self.llc.style_reward(amp) if self.config.reward.style > 0 else zeros
+        interaction = self.judge.reward(pairs) if self.judge is not None else zeros
         return {"task": task.astype(np.float32), "interaction": interaction, "style": style}
 
     def combine(self, terms: dict[str, np.ndarray]) -> np.ndarray:
@@ -167,7 +170,9 @@ class SkillAgent:
         )
 
     def collect(self) -> SkillRollout:
-        """`ppo.horizon` high-level steps of every environment."""
+        """`ppo.horizon` high-level steps of every environment. The control
+        steps' rewards are computed once at the end, in one batch (the
+        judges do not change during a collection)."""
         T, N, k = self.config.ppo.horizon, self.num_envs, self.config.high_level.hold_steps
         size = len(self.groups) * self.latent_size
         first = high_level_input(self._observations, self._interaction)
@@ -175,24 +180,23 @@ class SkillAgent:
         next_inputs = np.zeros_like(inputs)
         actions = np.zeros((T, N, size), np.float32)
         log_probs = np.zeros((T, N), np.float32)
-        terms = {name: np.zeros((T, N), np.float32) for name in REWARD_TERMS}
         terminated = np.zeros((T, N), bool)
         ended = np.zeros((T, N), bool)
-        transitions = []
-        control_steps = 0
+        # Per control step: alive (in its high-level step's episode), task reward, s_I pair, AMP windows.
+        alive_steps = np.zeros((T, k, N), bool)
+        task_steps = np.zeros((T, k, N), np.float32)
+        pair_steps = np.zeros((T, k, N, 2, first.shape[1] - self._observations.shape[1]), np.float32)
+        amp_steps: dict[str, np.ndarray] = {}
         for t in range(T):
             inputs[t] = high_level_input(self._observations, self._interaction)
             raw, log_prob = self.act(inputs[t])
             actions[t], log_probs[t] = raw, log_prob
             latents = to_latents(raw, self.groups, self.latent_size)
             alive = np.ones(N, bool)
-            sums = {name: np.zeros(N) for name in REWARD_TERMS}
-            lived = np.zeros(N)
             last = inputs[t].copy()
-            for _ in range(k):
+            for j in range(k):
                 action = self.llc.act(self._observations, latents)
                 observation, task, term, trunc, info = self.envs.step(action)
-                control_steps += N
                 done = term | trunc
                 after, interaction, amp = observation.copy(), _interaction(info, N), _amp(info)
                 for i in np.flatnonzero(done):  # same-step reset: the ended episode's last frames
@@ -200,12 +204,10 @@ class SkillAgent:
                     interaction[i] = info["final_info"]["interaction"][i]
                     for key in amp:
                         amp[key][i] = info["final_info"]["amp"][key][i]
-                pairs = np.stack([self._interaction, interaction], axis=1).astype(np.float32)
-                step_terms = self.control_step_rewards(amp, pairs, np.asarray(task))
-                transitions.append(pairs[alive])
-                for name in REWARD_TERMS:
-                    sums[name] += np.where(alive, step_terms[name], 0.0)
-                lived += alive
+                alive_steps[t, j], task_steps[t, j] = alive, task
+                pair_steps[t, j, :, 0], pair_steps[t, j, :, 1] = self._interaction, interaction
+                for key, windows in amp.items():
+                    amp_steps.setdefault(key, np.zeros((T, k, *windows.shape), np.float32))[t, j] = windows
                 last[alive] = high_level_input(after, interaction)[alive]
                 terminated[t] |= term & alive
                 ended[t] |= done & alive
@@ -213,9 +215,12 @@ class SkillAgent:
                 alive &= ~done
                 self._observations = observation
                 self._interaction = _interaction(info, N)
-            for name in REWARD_TERMS:
-                terms[name][t] = sums[name] / np.maximum(lived, 1)
             next_inputs[t] = last
+        step_terms = self.control_step_rewards(amp_steps, pair_steps, task_steps)
+        lived = np.maximum(alive_steps.sum(1), 1)
+        terms = {
+            name: (np.where(alive_steps, r, 0.0).sum(1) / lived).astype(np.float32) for name, r in step_terms.items()
+        }
         rewards = self.combine(terms)
         values, next_values = self.values(inputs), self.values(next_inputs)
         return SkillRollout(
@@ -228,8 +233,8 @@ class SkillAgent:
             terms,
             terminated,
             ended,
-            np.concatenate(transitions),
-            control_steps,
+            pair_steps[alive_steps],
+            T * k * N,
         )
 
     def _bookkeeping(self, done: np.ndarray, terminated: np.ndarray, info: dict) -> None:
