@@ -110,19 +110,9 @@ def main(argv: list[str] | None = None) -> int:
 def _settings(args) -> tuple[dict, TrainConfig]:
     """The run's settings and configuration, from the command line or, on
     resume, from the run folder (the command line may not contradict them)."""
-    out = Path(args.out)
-    check_number(args.steps, "--steps", low=1, high=10**10, integer=True)
-    if args.workers is not None:
-        check_number(args.workers, "--workers", low=1, high=64, integer=True)
-    check_number(args.seed, "--seed", low=0, high=2**31 - 1, integer=True)
-    check_number(args.eval_episodes, "--eval-episodes", low=0, high=10_000, integer=True)
-    if args.checkpoint_every is not None:
-        check_number(args.checkpoint_every, "--checkpoint-every", low=1, high=10**6, integer=True)
+    out = check_run_arguments(args)
     if args.resume:
-        if not (out / "checkpoint.pt").is_file() or not (out / "run.json").is_file():
-            raise UserError(f"{out}: no run to resume here (no checkpoint.pt and run.json)")
-        settings = json.loads((out / "run.json").read_text())
-        checkpoint = read_checkpoint(out / "checkpoint.pt", kind="training")
+        settings, checkpoint = resumed_run(out)
         for name in ("robot", "hands", "algo"):
             given = getattr(args, name)
             if given is not None and given != settings[name]:
@@ -152,6 +142,25 @@ def _settings(args) -> tuple[dict, TrainConfig]:
         "workers": args.workers or 2,
     }
     return settings, config
+
+
+def check_run_arguments(args) -> Path:
+    """The numbers every training command takes, checked; the run folder."""
+    check_number(args.steps, "--steps", low=1, high=10**10, integer=True)
+    if args.workers is not None:
+        check_number(args.workers, "--workers", low=1, high=64, integer=True)
+    check_number(args.seed, "--seed", low=0, high=2**31 - 1, integer=True)
+    check_number(args.eval_episodes, "--eval-episodes", low=0, high=100_000, integer=True)
+    if args.checkpoint_every is not None:
+        check_number(args.checkpoint_every, "--checkpoint-every", low=1, high=10**6, integer=True)
+    return Path(args.out)
+
+
+def resumed_run(out: Path) -> tuple[dict, dict]:
+    """The settings and last training checkpoint of the run to resume in `out`."""
+    if not (out / "checkpoint.pt").is_file() or not (out / "run.json").is_file():
+        raise UserError(f"{out}: no run to resume here (no checkpoint.pt and run.json)")
+    return json.loads((out / "run.json").read_text()), read_checkpoint(out / "checkpoint.pt", kind="training")
 
 
 def _motions(text: str) -> list[str]:

@@ -36,7 +36,7 @@ import yaml
 
 from hotu_drake.cli import UserError
 from hotu_drake.embodiment import EMBODIMENT_NAMES, HANDS_VARIANTS
-from hotu_drake.errors import InputError, check_choice, check_number
+from hotu_drake.errors import InputError, check_choice
 from hotu_drake.io import check_output_path, write_text_atomic
 from hotu_drake.learning.checkpoint import CheckpointError, read_checkpoint, save_checkpoint
 from hotu_drake.learning.skill_config import (
@@ -48,7 +48,7 @@ from hotu_drake.learning.skill_config import (
     skill_config_from_dict,
     skill_preset,
 )
-from hotu_drake.train import CHECKPOINT_SECONDS, _cores, _motions, _save, _train
+from hotu_drake.train import CHECKPOINT_SECONDS, _cores, _motions, _save, _train, check_run_arguments, resumed_run
 
 # The motions each task environment learns from by default: its human-object demonstration and a walk.
 TASK_MOTIONS = {"box_carry": ["walk", "box_carry"], "drill_grasp": ["walk", "drill_grasp"]}
@@ -98,21 +98,11 @@ def _load_controller(path: str):
 
 
 def _settings(args) -> tuple[dict, SkillConfig]:
-    out = Path(args.out)
-    check_number(args.steps, "--steps", low=1, high=10**10, integer=True)
-    if args.workers is not None:
-        check_number(args.workers, "--workers", low=1, high=64, integer=True)
-    check_number(args.seed, "--seed", low=0, high=2**31 - 1, integer=True)
-    check_number(args.eval_episodes, "--eval-episodes", low=0, high=100_000, integer=True)
-    if args.checkpoint_every is not None:
-        check_number(args.checkpoint_every, "--checkpoint-every", low=1, high=10**6, integer=True)
+    out = check_run_arguments(args)
     if args.resume:
-        if not (out / "checkpoint.pt").is_file() or not (out / "run.json").is_file():
-            raise UserError(f"{out}: no run to resume here (no checkpoint.pt and run.json)")
-        settings = json.loads((out / "run.json").read_text())
+        settings, checkpoint = resumed_run(out)
         if settings.get("command") != "skill":
             raise UserError(f"{out}: a behavior run (resume it with train pretrain)")
-        checkpoint = read_checkpoint(out / "checkpoint.pt", kind="training")
         for name in ("task", "robot", "hands", "algo"):
             given = getattr(args, name)
             if given is not None and given != settings[name]:

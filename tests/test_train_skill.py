@@ -14,15 +14,8 @@ from hotu_drake.learning.checkpoint import load_checkpoint, read_checkpoint
 from hotu_drake.learning.skill_agent import high_level_input, to_latents
 from hotu_drake.scenario import load_scenario
 from hotu_drake.train import main
+from tests.test_train import TINY as BEHAVIOR
 
-BEHAVIOR = """\
-ppo: {horizon: 32, minibatch_size: 32, epochs: 2}
-networks: {policy_hidden: [32, 32], critic_hidden: [32, 32], discriminator_hidden: [32, 32]}
-style: {batch_size: 32, updates: 1, replay_size: 1000}
-latent: {size: 4}
-warm_start: {epochs: 2}
-torch_threads: 1
-"""
 SKILL = """\
 ppo: {horizon: 8, minibatch_size: 16, epochs: 2}
 high_level: {hold_steps: 3, hidden: [32], critic_hidden: [32]}

@@ -39,7 +39,7 @@ from hotu_drake.learning.latents import LatentSchedule, sample_sphere
 from hotu_drake.learning.models import ActorCritic, StyleNetwork
 from hotu_drake.learning.parts import PartGroup, resolve_groups
 from hotu_drake.learning.policy import PolicyConfig
-from hotu_drake.learning.ppo import PPO, PPOBatch, gae
+from hotu_drake.learning.ppo import PPO, PPOBatch, gae, make_batch
 from hotu_drake.learning.style import (
     combine_rewards,
     discriminator_loss,
@@ -304,24 +304,13 @@ class Agent:
             c.ppo.gamma,
             c.ppo.lam,
         )
-        returns = advantages + rollout.values
-        model = self.model
-        flat = rollout.observations.reshape(-1, rollout.observations.shape[-1])
-        if c.ppo.normalize_value:
-            model.value_normalizer.update(torch.as_tensor(returns.reshape(-1, 1)))
-        to_normal = model.value_normalizer
-        batch = PPOBatch(
-            observations=torch.as_tensor(flat),
-            latents={g: torch.as_tensor(z.reshape(len(flat), -1)) for g, z in rollout.latents.items()},
-            actions=torch.as_tensor(rollout.actions.reshape(len(flat), -1)),
-            log_probs=torch.as_tensor(rollout.log_probs.reshape(-1)),
-            values=to_normal(torch.as_tensor(rollout.values.reshape(-1, 1)))[:, 0],
-            returns=to_normal(torch.as_tensor(returns.reshape(-1, 1)))[:, 0],
-            advantages=torch.as_tensor(advantages.reshape(-1)),
+        r = rollout
+        batch = make_batch(
+            self.model, r.observations, r.latents, r.actions, r.log_probs, r.values, advantages, c.ppo.normalize_value
         )
         stats = self.ppo.update(batch, self.generator, self._extra_losses)
         stats |= self._update_style(rollout)
-        model.policy.normalizer.update(torch.as_tensor(flat))
+        self.model.policy.normalizer.update(batch.observations)
         return stats
 
     def _extra_losses(self, mb: PPOBatch, mean: torch.Tensor) -> dict[str, torch.Tensor]:

@@ -252,6 +252,13 @@ def config_from_dict(data: dict, base: TrainConfig | None = None, where: str = "
 
 def load_config(path: str | Path, algo: str | None = None) -> TrainConfig:
     """The preset of `algo` (or of the file's `algo`) overridden by the YAML file at `path`."""
+    data = read_config_file(path, algo, "dail")
+    return config_from_dict(data, preset(data["algo"]), str(path))
+
+
+def read_config_file(path: str | Path, algo: str | None, default_algo: str) -> dict:
+    """A configuration file's mapping, its `algo` set to `algo` (which the
+    file may not contradict), else the file's, else `default_algo`."""
     path = Path(path)
     try:
         data = yaml.safe_load(path.read_text()) or {}
@@ -261,10 +268,9 @@ def load_config(path: str | Path, algo: str | None = None) -> TrainConfig:
         raise InputError(f"not valid YAML ({str(error).splitlines()[0]})", str(path)) from None
     if not isinstance(data, dict):
         raise InputError("a training configuration must be a mapping of sections", str(path))
-    chosen = algo or data.get("algo", "dail")
     if algo and data.get("algo", algo) != algo:
         raise InputError(f"the file says algo {data['algo']!r}, the command line {algo!r}", str(path), "algo")
-    return config_from_dict({**data, "algo": chosen}, preset(chosen), str(path))
+    return {**data, "algo": algo or data.get("algo", default_algo)}
 
 
 def _merge(target: Any, data: dict, where: str, prefix: str) -> None:

@@ -64,6 +64,36 @@ class PPOBatch:
         )
 
 
+def make_batch(
+    model: ActorCritic,
+    observations: np.ndarray,
+    latents: dict[str, np.ndarray],
+    actions: np.ndarray,
+    log_probs: np.ndarray,
+    values: np.ndarray,
+    advantages: np.ndarray,
+    normalize_value: bool,
+) -> PPOBatch:
+    """A rollout's (T, N, ...) arrays as the update's flat batch. The
+    returns (advantages + values) first update the critic's value
+    normaliser (with `normalize_value`); values and returns are given in
+    its units, as the critic predicts them."""
+    returns = advantages + values
+    flat = observations.reshape(-1, observations.shape[-1])
+    if normalize_value:
+        model.value_normalizer.update(torch.as_tensor(returns.reshape(-1, 1)))
+    to_normal = model.value_normalizer
+    return PPOBatch(
+        observations=torch.as_tensor(flat),
+        latents={g: torch.as_tensor(z.reshape(len(flat), -1)) for g, z in latents.items()},
+        actions=torch.as_tensor(actions.reshape(len(flat), -1)),
+        log_probs=torch.as_tensor(log_probs.reshape(-1)),
+        values=to_normal(torch.as_tensor(values.reshape(-1, 1)))[:, 0],
+        returns=to_normal(torch.as_tensor(returns.reshape(-1, 1)))[:, 0],
+        advantages=torch.as_tensor(advantages.reshape(-1)),
+    )
+
+
 def bound_loss(mean: torch.Tensor, bound: float = 1.0) -> torch.Tensor:
     """How far mean actions leave [-bound, bound] (squared, summed over joints)."""
     return ((mean - bound).clamp_min(0.0).square() + (mean + bound).clamp_max(0.0).square()).sum(-1).mean()

@@ -37,7 +37,7 @@ from hotu_drake.learning.interaction import InteractionJudge
 from hotu_drake.learning.low_level import LowLevelController
 from hotu_drake.learning.models import ActorCritic
 from hotu_drake.learning.policy import PolicyConfig
-from hotu_drake.learning.ppo import PPO, PPOBatch, gae
+from hotu_drake.learning.ppo import PPO, gae, make_batch
 from hotu_drake.learning.skill_config import SkillConfig
 
 HALF_LOG_2PI = 0.5 * math.log(2.0 * math.pi)
@@ -254,25 +254,13 @@ class SkillAgent:
         c = self.config
         r = rollout
         advantages = gae(r.rewards, r.values, r.next_values, r.terminated, r.ended, c.ppo.gamma, c.ppo.lam)
-        returns = advantages + rollout.values
-        model = self.model
-        flat = rollout.inputs.reshape(-1, rollout.inputs.shape[-1])
-        if c.ppo.normalize_value:
-            model.value_normalizer.update(torch.as_tensor(returns.reshape(-1, 1)))
-        to_normal = model.value_normalizer
-        batch = PPOBatch(
-            observations=torch.as_tensor(flat),
-            latents={},
-            actions=torch.as_tensor(rollout.actions.reshape(len(flat), -1)),
-            log_probs=torch.as_tensor(rollout.log_probs.reshape(-1)),
-            values=to_normal(torch.as_tensor(rollout.values.reshape(-1, 1)))[:, 0],
-            returns=to_normal(torch.as_tensor(returns.reshape(-1, 1)))[:, 0],
-            advantages=torch.as_tensor(advantages.reshape(-1)),
+        batch = make_batch(
+            self.model, r.inputs, {}, r.actions, r.log_probs, r.values, advantages, c.ppo.normalize_value
         )
         stats = self.ppo.update(batch, self.generator)
         if self.judge is not None and len(rollout.transitions):
             stats |= self.judge.update(rollout.transitions)
-        model.policy.normalizer.update(torch.as_tensor(flat))
+        self.model.policy.normalizer.update(batch.observations)
         return stats
 
     def iteration(self) -> dict[str, float]:

@@ -20,10 +20,8 @@ import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import yaml
-
 from hotu_drake.errors import InputError, check_choice, check_number
-from hotu_drake.learning.config import PPOConfig, TrainConfig, _merge, preset
+from hotu_drake.learning.config import PPOConfig, TrainConfig, _merge, preset, read_config_file
 
 SKILL_ALGORITHMS = ("ours", "amp", "ase", "pmp")
 TWO_LEVEL = ("ours", "ase")
@@ -161,16 +159,4 @@ def skill_config_from_dict(data: dict, where: str = "config") -> SkillConfig:
 
 def load_skill_config(path: str | Path, algo: str | None = None) -> SkillConfig:
     """The preset of `algo` (or of the file's `algo`) overridden by the YAML file at `path`."""
-    path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except OSError as error:
-        raise InputError(f"cannot read it ({error.strerror})", str(path)) from None
-    except yaml.YAMLError as error:
-        raise InputError(f"not valid YAML ({str(error).splitlines()[0]})", str(path)) from None
-    if not isinstance(data, dict):
-        raise InputError("a skill configuration must be a mapping of sections", str(path))
-    chosen = algo or data.get("algo", "ours")
-    if algo and data.get("algo", algo) != algo:
-        raise InputError(f"the file says algo {data['algo']!r}, the command line {algo!r}", str(path), "algo")
-    return skill_config_from_dict({**data, "algo": chosen}, str(path))
+    return skill_config_from_dict(read_config_file(path, algo, "ours"), str(path))

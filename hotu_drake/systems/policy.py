@@ -48,11 +48,7 @@ def load_policy(path: str | Path, embodiment: Embodiment, goal_size: int = 0) ->
         raise UserError(str(error)) from None
     if meta.get("meta", {}).get("kind") == "skill":
         raise UserError(f"{path}: a skill's high level, not a controller (a scenario runs it with !SkillCheckpoint)")
-    if (meta.get("embodiment"), meta.get("hands")) != (embodiment.name, embodiment.hands):
-        raise UserError(
-            f"{path}: the policy drives {meta.get('embodiment')} hands={meta.get('hands')}, "
-            f"not {embodiment.name} hands={embodiment.hands}"
-        )
+    check_embodiment(path, meta, embodiment, "policy")
     if network.config.action_size != len(embodiment.joint_names):
         actions, joints = network.config.action_size, len(embodiment.joint_names)
         raise UserError(f"{path}: the policy has {actions} actions, {embodiment.name} has {joints} joints")
@@ -60,6 +56,15 @@ def load_policy(path: str | Path, embodiment: Embodiment, goal_size: int = 0) ->
         size, expected = network.config.observation_size, observation_size(embodiment)
         raise UserError(f"{path}: the policy observes {size} numbers, {embodiment.name}'s observation has {expected}")
     return network, meta
+
+
+def check_embodiment(path: str | Path, data: dict, embodiment: Embodiment, what: str) -> None:
+    """`UserError` unless the checkpoint `data` was trained on `embodiment` (with its hands)."""
+    if (data.get("embodiment"), data.get("hands")) != (embodiment.name, embodiment.hands):
+        raise UserError(
+            f"{path}: the {what} drives {data.get('embodiment')} hands={data.get('hands')}, "
+            f"not {embodiment.name} hands={embodiment.hands}"
+        )
 
 
 class PolicySystem(LeafSystem):

@@ -23,7 +23,7 @@ from hotu_drake.learning.policy import PolicyNetwork
 from hotu_drake.learning.skill_agent import high_level_input, to_latents
 from hotu_drake.systems.interaction_graph import GOAL_SIZE
 from hotu_drake.systems.observation import observation_size
-from hotu_drake.systems.policy import CONTROL_RATE
+from hotu_drake.systems.policy import CONTROL_RATE, check_embodiment
 
 
 def load_skill_policy(path: str | Path, embodiment: Embodiment) -> tuple[PolicyNetwork, dict]:
@@ -36,11 +36,7 @@ def load_skill_policy(path: str | Path, embodiment: Embodiment) -> tuple[PolicyN
     meta = data.get("meta", {})
     if meta.get("kind") != "skill":
         raise UserError(f"{path}: not a skill checkpoint (train one with `python -m hotu_drake.train skill`)")
-    if (data.get("embodiment"), data.get("hands")) != (embodiment.name, embodiment.hands):
-        raise UserError(
-            f"{path}: the skill drives {data.get('embodiment')} hands={data.get('hands')}, "
-            f"not {embodiment.name} hands={embodiment.hands}"
-        )
+    check_embodiment(path, data, embodiment, "skill")
     expected = observation_size(embodiment) + GOAL_SIZE + int(meta["interaction_size"])
     if network.config.observation_size != expected:
         size = network.config.observation_size
