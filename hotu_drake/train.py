@@ -395,15 +395,17 @@ def plot_command(args) -> int:
             raise UserError(f"{run}: not a run folder (no metrics.jsonl)")
         rows = [r for r in read_metrics(run / "metrics.jsonl") if "samples_per_second" in r]
         settings = json.loads((run / "run.json").read_text()) if (run / "run.json").is_file() else {}
-        for key in keys:
-            if not any(key in r for r in rows):
-                raise UserError(f"{run / 'metrics.jsonl'}: no metric {key!r}")
         curves[f"{run.name} ({settings.get('algo', '?')})"] = rows
+    for key in keys:  # a run without a metric (D_I's reward of a one-level skill) is left out of its panel
+        if not any(key in r for rows in curves.values() for r in rows):
+            raise UserError(f"{', '.join(args.runs)}: no metric {key!r}")
     plt = _pyplot("plot")
     figure, axes = plt.subplots(len(keys), 1, figsize=(7, 3 * len(keys)), squeeze=False)
     for ax, key in zip(axes[:, 0], keys):
         for label, rows in curves.items():
-            points = [(r["samples"], r[key]) for r in rows if key in r]
+            points = [(r["samples"], r[key]) for r in rows if key in r and r[key] is not None]
+            if not points:
+                continue
             x, y = np.array(points).T
             window = min(args.smooth, len(y))
             smooth = np.convolve(y, np.ones(window) / window, mode="valid")

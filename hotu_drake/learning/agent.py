@@ -447,6 +447,8 @@ class Agent:
         if self.episode_successes:
             stats["success_rate"] = float(np.mean(self.episode_successes))
         stats |= {key: float(value.mean()) for key, value in rewards.items() if key != "total"}
+        if "task" in rewards:  # a skill's one-level run: eq. (3)'s terms under the names the two-level runs use
+            stats |= {"reward/task": stats["task"], "reward/style": stats["style"]}
         return stats
 
     # -- warm start ----------------------------------------------------------------
