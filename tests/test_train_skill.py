@@ -111,3 +111,14 @@ def test_a_skill_run_resumes_with_its_counters(runs, tmp_path):
     assert main(["skill", "--out", str(run), "--steps", "72", "--resume", "--eval-episodes", "0"]) == 0
     lines = [json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines()]
     assert [line["samples"] for line in lines] == [24, 48, 72]
+
+
+def test_plot_draws_the_reward_terms_of_every_method(runs, tmp_path):
+    out = tmp_path / "terms.png"
+    keys = "reward/task,reward/interaction,reward/style"
+    assert main(["plot", str(runs["ours"]), str(runs["amp"]), "--out", str(out), "--keys", keys, "--smooth", "1"]) == 0
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    from hotu_drake.cli import UserError
+
+    with pytest.raises(UserError, match="no metric 'reward/grip'"):
+        main(["plot", str(runs["amp"]), "--out", str(tmp_path / "x.png"), "--keys", "reward/grip"])
