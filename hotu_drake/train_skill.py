@@ -207,7 +207,7 @@ def _demonstrations(settings: dict, config: SkillConfig):
             if config.uses_interaction and not sequences:
                 kind = inner._object.kind
                 raise UserError(f"--motions: none of {', '.join(settings['motions'])} carries a {kind} track for D_I")
-            return (transitions(sequences) if sequences else None), None
+            return (transitions(sequences) if sequences else None), inner.standing_action()
         return build_demonstrations(inner), inner.standing_action()
     finally:
         env.close()
@@ -310,9 +310,10 @@ def _save_skill(agent, settings: dict, out: Path, config: SkillConfig) -> None:
 
 def evaluate_skill_run(run: Path, episodes: int, seed: int, workers: int) -> dict:
     """The run's last checkpoint on `episodes` seeded episodes (each its own
-    start and target): success rate, normalised return, falls; writes
-    `report.json` and the scenario of the best episode (`best_episode.yaml`)."""
-    from hotu_drake.learning.evaluation import evaluate_task
+    start and target): success rate, normalised return, falls, next to the
+    robot just standing on the same tasks; writes `report.json` and the
+    scenario of the best episode (`best_episode.yaml`)."""
+    from hotu_drake.learning.evaluation import evaluate_task, standing_policy
 
     settings = json.loads((run / "run.json").read_text())
     checkpoint = read_checkpoint(run / "checkpoint.pt", kind="training")
@@ -333,8 +334,10 @@ def evaluate_skill_run(run: Path, episodes: int, seed: int, workers: int) -> dic
                 return agent.act(observations, {}, deterministic=True)[0]
 
         result = evaluate_task(envs, controller, episodes, seed)
+        standing_result = evaluate_task(envs, standing_policy(standing), episodes, seed)  # the same tasks
     finally:
         envs.close()
+    standing_result.pop("episodes_detail")
     detail = result.pop("episodes_detail")
     best = max(range(len(detail)), key=lambda i: (detail[i]["success"], detail[i]["return"]))
     report = {
@@ -342,7 +345,7 @@ def evaluate_skill_run(run: Path, episodes: int, seed: int, workers: int) -> dic
         "samples": agent.counters["samples"],
         "iterations": agent.counters["iteration"],
         "wall_clock_seconds": round(agent.counters["seconds"], 1),
-        "evaluation": {**result, "seed": seed, "best_episode": detail[best]},
+        "evaluation": {**result, "seed": seed, "best_episode": detail[best], "standing": standing_result},
         "curriculum": config.environment.task,
         "machine": {"cpu_cores": _cores(), "python": platform.python_version(), "date": date.today().isoformat()},
     }
@@ -389,6 +392,8 @@ def summary(report: dict) -> dict:
         "normalized_return": round(e["normalized_return"], 3),
         "fall_rate": e["fall_rate"],
         "mean_episode_steps": round(e["mean_episode_steps"], 1),
+        "standing_success_rate": e["standing"]["success_rate"],
+        "standing_normalized_return": round(e["standing"]["normalized_return"], 3),
     }
 
 

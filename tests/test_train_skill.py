@@ -62,6 +62,8 @@ def test_a_skill_run_writes_its_folder_with_every_reward_term(runs):
     evaluation = report["evaluation"]
     assert evaluation["episodes"] == 2 and 0.0 <= evaluation["normalized_return"] <= 1.0
     assert evaluation["success_rate"] in (0.0, 0.5, 1.0)
+    standing = evaluation["standing"]  # the robot just standing, on the same two tasks
+    assert standing["episodes"] == 2 and standing["fall_rate"] == 0.0 and 0.0 < standing["normalized_return"] < 1.0
     checkpoint = read_checkpoint(run / "checkpoint.pt", kind="training")
     meta = checkpoint["meta"]
     assert meta["kind"] == "skill" and meta["hold_steps"] == 3 and meta["llc"] == str(runs["llc"].resolve())

@@ -36,9 +36,10 @@ Policy = Callable[[np.ndarray, dict[str, np.ndarray]], np.ndarray]
 
 
 def standing_policy(action: np.ndarray) -> Policy:
-    """A policy that always asks for `action` (the standing pose's)."""
+    """A policy that always asks for `action` (the standing pose's); also a
+    `TaskController` (it ignores whatever else it is given)."""
 
-    def act(observations: np.ndarray, latents: dict) -> np.ndarray:
+    def act(observations: np.ndarray, *_) -> np.ndarray:
         return np.tile(np.asarray(action, dtype=np.float32), (len(observations), 1))
 
     return act
