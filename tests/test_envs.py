@@ -218,7 +218,7 @@ def test_box_carry_success_needs_the_box_resting_near_the_target_for_a_second():
     env.close()
 
 
-def test_demonstration_interaction_comes_from_the_same_graph():
+def test_demonstration_interaction_comes_from_the_same_graph(monkeypatch):
     """s_I of the library's box carry (retargeted to the UDH) at its own frames: the hands touch the box
     while it is off the floor and not while the person walks up to it; d_og ends at zero."""
     env = gym.make("hotu_drake/BoxCarry-v0", motions=["walk", "box_carry"])
@@ -235,6 +235,8 @@ def test_demonstration_interaction_comes_from_the_same_graph():
     assert np.linalg.norm(s_i[-1, 6:9]) < 1e-6 < np.linalg.norm(s_i[0, 6:9])
     with pytest.raises(InputError, match="no box track"):
         inner.clip_interaction(0, 0.5)  # the walk has no box
+    monkeypatch.setattr(clip, "object_names", ["Box_1"])  # a capture's rigid body, named its own way
+    np.testing.assert_array_equal(inner.clip_interaction(1, 5.0), s_i[150])
     env.close()
 
 

@@ -140,7 +140,7 @@ class _ObjectTaskEnv(DiagramEnv):
         last position as the target; `InputError` if the clip carries no
         track of this task's object."""
         clip = self.clips[clip_index]
-        if self._object.kind not in clip.object_names:
+        if self._track(clip) is None:
             raise InputError(f"{clip.source}: no {self._object.kind} track (objects: {clip.object_names or 'none'})")
         return self._graph_port.Eval(self._clip_frame(clip_index, time_)).astype(np.float32)
 
@@ -150,7 +150,7 @@ class _ObjectTaskEnv(DiagramEnv):
         carries a track of the object (zeros if not)."""
         robot = super().clip_observation(clip_index, time_)[: self._observer.observation_size]
         goal = np.zeros(GOAL_FEATURES)
-        if self._object.kind in self.clips[clip_index].object_names:
+        if self._track(self.clips[clip_index]) is not None:
             goal = self._goal_port.Eval(self._clip_frame(clip_index, time_))
         return np.concatenate([robot, goal]).astype(np.float32)
 
@@ -161,8 +161,8 @@ class _ObjectTaskEnv(DiagramEnv):
         context = self._scratch_diagram
         plant_context = sim.plant.GetMyMutableContextFromRoot(context)
         set_robot_state(sim.plant, plant_context, sim.model, self.embodiment, ClipPlayback(clip, loop=False), time_)
-        if self._object.kind in clip.object_names:
-            k = clip.object_names.index(self._object.kind)
+        k = self._track(clip)
+        if k is not None:
             frame = min(int(round(time_ * clip.fps)), clip.num_frames - 1)
             pose = clip.object_poses[frame, k]
             sim.plant.SetFreeBodyPose(plant_context, self._object_body, RigidTransform(Quaternion(pose[3:]), pose[:3]))
@@ -180,7 +180,14 @@ class _ObjectTaskEnv(DiagramEnv):
 
     def interaction_clips(self) -> list[int]:
         """The indices of the reference clips with a track of this task's object."""
-        return [i for i, c in enumerate(self.clips) if self._object.kind in c.object_names]
+        return [i for i, c in enumerate(self.clips) if self._track(c) is not None]
+
+    def _track(self, clip) -> int | None:
+        """The index of the clip's track of this task's object: the first object
+        whose name starts with the object's kind, in any case (`box`, `Box1`,
+        an OptiTrack rigid body `box_small`), or None."""
+        kind = self._object.kind.lower()
+        return next((k for k, name in enumerate(clip.object_names) if name.lower().startswith(kind)), None)
 
     def _count_success(self, info: dict, done: bool) -> None:
         """Count consecutive steps in the task's end state into
