@@ -132,7 +132,8 @@ def test_the_high_level_learns_to_reach_the_goal_through_its_controller():
     envs = toy_env.task_vector_env(4, HISTORY)
     agent = SkillAgent(config, envs, _toy_controller(), seed=0)
     before = evaluate_task(envs, SkillController(agent), episodes=8, seed=3, max_steps=60)
-    rewards = [agent.iteration()["reward/task"] for _ in range(60)]
+    assert "reward/interaction" not in agent.iteration()  # ase: no D_I, no interaction term
+    rewards = [agent.iteration()["reward/task"] for _ in range(59)]
     assert np.mean(rewards[-10:]) > np.mean(rewards[:10]) + 0.15, rewards
     after = evaluate_task(envs, SkillController(agent), episodes=8, seed=3, max_steps=60)
     assert after["episodes"] == 8 and after["normalized_return"] > before["normalized_return"] + 0.15

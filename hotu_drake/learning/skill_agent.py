@@ -289,6 +289,8 @@ class SkillAgent:
             "success_rate": float(np.mean(self.episode_successes)) if self.episode_successes else float("nan"),
         }
         stats |= {f"reward/{name}": float(values.mean()) for name, values in rollout.terms.items()}
+        if self.judge is None:  # no D_I (ase): no interaction term to log
+            stats.pop("reward/interaction")
         return stats
 
     # -- state -----------------------------------------------------------------------
