@@ -194,8 +194,9 @@ def _make_env(settings: dict, config: SkillConfig):
 
 def _demonstrations(settings: dict, config: SkillConfig):
     """What the run learns from, built once here: the demonstrations' s_I
-    transitions (two-level), or the clips' arrays and the standing action
-    (one-level)."""
+    transitions (two-level) or the clips' arrays (one-level), and the
+    robot's standing action (the one-level policy's offset, and the
+    evaluation's baseline)."""
     from hotu_drake.envs.demonstrations import build_demonstrations
     from hotu_drake.learning.interaction import transitions
 
