@@ -276,7 +276,13 @@ def _(driver: PolicyCheckpoint, parts: DiagramParts) -> OutputPort:
         groups = list(network.config.latent_sizes)
         low, high = int(prior["resample_min"]), int(prior["resample_max"])
         latents = AddLatentSampler(parts.builder, groups, int(prior["size"]), low, high, rate, driver.latent_seed)
-    policy = AddPolicy(parts.builder, network, observation, rate, latents)
+    return _policy_targets(parts, network, observation, latents)
+
+
+def _policy_targets(parts: DiagramParts, network, observation: OutputPort, latents) -> OutputPort:
+    """A `PolicySystem` of `network` fed by `observation` and `latents`, its
+    action exported and turned into PD targets (the policy drivers' common end)."""
+    policy = AddPolicy(parts.builder, network, observation, parts.scenario.control_rate, latents)
     targets = AddActionToTargets(parts.builder, parts.embodiment, parts.explicit)
     parts.builder.Connect(policy.GetOutputPort("action"), targets.get_input_port())
     parts.builder.ExportOutput(policy.GetOutputPort("action"), "action")
@@ -306,12 +312,8 @@ def _(driver: SkillCheckpoint, parts: DiagramParts) -> OutputPort:
     latents = AddSkillPolicy(
         builder, skill, meta, observation, graph.GetOutputPort("goal"), graph.GetOutputPort("interaction"), rate
     )
-    policy = AddPolicy(builder, network, observation, rate, latents)
-    targets = AddActionToTargets(builder, emb, parts.explicit)
-    builder.Connect(policy.GetOutputPort("action"), targets.get_input_port())
-    builder.ExportOutput(policy.GetOutputPort("action"), "action")
     builder.ExportOutput(latents.GetOutputPort("latents"), "latents")
-    return targets.get_output_port()
+    return _policy_targets(parts, network, observation, latents)
 
 
 @add_driver.register

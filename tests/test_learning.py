@@ -283,7 +283,7 @@ def test_a_low_style_reward_ends_episodes_after_the_patience():
     envs.close()
     assert rollout.style_terminated.sum() > 0
     assert np.all(rollout.terminated[rollout.style_terminated])  # a cut is an end without bootstrap
-    assert set(agent.episode_lengths) == {5}
+    assert set(agent.episodes.lengths) == {5}
 
 
 def test_holding_one_reference_pose_is_near_the_reference_but_covers_little_of_it():

@@ -274,6 +274,12 @@ class DiagramEnv(gym.Env):
         self.timings.total += time.perf_counter() - start
         return observation, float(reward), bool(terminated), False, info
 
+    def clip_times(self, clip_index: int) -> np.ndarray:
+        """Reference clip `clip_index`'s frames at the control rate: 0, one
+        control period, ... up to its duration (the demonstrations' times)."""
+        period = self.control_period
+        return np.arange(int(np.floor(self.clips[clip_index].duration / period + 1e-9)) + 1) * period
+
     def clip_amp_frame(self, clip_index: int, time_: float) -> np.ndarray:
         """The AMP frame of reference clip `clip_index` at `time_` (clamped to
         the clip), aligned as reference starts are; for the history at a

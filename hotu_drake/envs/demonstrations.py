@@ -65,8 +65,8 @@ def _build(env: DiagramEnv) -> Demonstrations:
     layout = AmpLayout.from_dict(env.amp_layout())
     period = env.control_period
     motions = {}
-    for index, (name, clip) in enumerate(zip(motion_names(env), env.clips)):
-        times = np.arange(int(np.floor(clip.duration / period + 1e-9)) + 1) * period
+    for index, name in enumerate(motion_names(env)):
+        times = env.clip_times(index)
         frames = np.array([env.clip_amp_frame(index, t) for t in times], dtype=np.float32)
         observations = np.array([env.clip_observation(index, t) for t in times], dtype=np.float32)
         joints = np.array([env._playbacks[index].joints_at(t)[0] for t in times])

@@ -45,7 +45,6 @@ from hotu_drake.retarget.references import reference_clips
 from hotu_drake.scenario import Scenario
 from hotu_drake.systems.interaction_graph import GOAL_SIZE
 
-GOAL_FEATURES = GOAL_SIZE
 HOLD_SECONDS = 1.0  # how long the task's end state must hold for success
 
 
@@ -114,7 +113,7 @@ class _ObjectTaskEnv(DiagramEnv):
         return int(self._graph_port.size())
 
     def _observation_size(self) -> int:
-        return super()._observation_size() + GOAL_FEATURES
+        return super()._observation_size() + GOAL_SIZE
 
     def _sample_goal(self) -> tuple[RigidTransform, np.ndarray]:
         raise NotImplementedError
@@ -149,7 +148,7 @@ class _ObjectTaskEnv(DiagramEnv):
         cloning): the robot's, then the goal at that frame if the clip
         carries a track of the object (zeros if not)."""
         robot = super().clip_observation(clip_index, time_)[: self._observer.observation_size]
-        goal = np.zeros(GOAL_FEATURES)
+        goal = np.zeros(GOAL_SIZE)
         if self._track(self.clips[clip_index]) is not None:
             goal = self._goal_port.Eval(self._clip_frame(clip_index, time_))
         return np.concatenate([robot, goal]).astype(np.float32)
@@ -174,8 +173,7 @@ class _ObjectTaskEnv(DiagramEnv):
         control rate: the interaction discriminator's demonstrations."""
         sequences = []
         for index in self.interaction_clips():
-            times = np.arange(int(np.floor(self.clips[index].duration / self.control_period + 1e-9)) + 1)
-            sequences.append(np.array([self.clip_interaction(index, t * self.control_period) for t in times]))
+            sequences.append(np.array([self.clip_interaction(index, t) for t in self.clip_times(index)]))
         return sequences
 
     def interaction_clips(self) -> list[int]:

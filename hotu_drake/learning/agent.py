@@ -26,13 +26,12 @@ from __future__ import annotations
 
 import math
 import time
-from collections import deque
 
 import numpy as np
 import torch
 from torch import nn
 
-from hotu_drake.learning.buffers import ReplayBuffer, Rollout
+from hotu_drake.learning.buffers import EpisodeLog, ReplayBuffer, Rollout, to_arrays, to_tensors
 from hotu_drake.learning.config import TrainConfig
 from hotu_drake.learning.demonstrations import Demonstrations
 from hotu_drake.learning.latents import LatentSchedule, sample_sphere
@@ -109,8 +108,7 @@ class Agent:
             list(latent_sizes), latent.size, self.num_envs, latent.resample_min, latent.resample_max, self.rng
         )
         self.counters = {"iteration": 0, "samples": 0, "episodes": 0, "falls": 0, "seconds": 0.0, "warm_started": False}
-        self.episode_lengths: deque = deque(maxlen=200)
-        self.episode_successes: deque = deque(maxlen=200)
+        self.episodes = EpisodeLog(self.num_envs)
         self._reset_envs()
 
     def _action_std(self, action_size: int) -> list[float]:
@@ -128,7 +126,7 @@ class Agent:
         seed = int(self.rng.integers(2**31))
         self._observations, info = self.envs.reset(seed=seed)
         self._low_style = np.zeros(self.num_envs, dtype=np.int64)
-        self._steps = np.zeros(self.num_envs, dtype=np.int64)
+        self.episodes.restart()
 
     def group_windows(self, amp: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Each group's windows from an `info["amp"]` batch (N, K, d_key)."""
@@ -282,15 +280,9 @@ class Agent:
         return observation
 
     def _bookkeeping(self, terminated: np.ndarray, ended: np.ndarray, info: dict) -> None:
-        self._steps += 1
-        success = info.get("final_info", {}).get("success")
-        for i in np.flatnonzero(ended):
-            self.episode_lengths.append(int(self._steps[i]))
-            if success is not None:  # a task's episodes
-                self.episode_successes.append(bool(np.asarray(success)[i]))
+        self.episodes.step(ended, info)
         self.counters["episodes"] += int(ended.sum())
         self.counters["falls"] += int(terminated.sum())
-        self._steps[ended] = 0
 
     def update(self, rollout: Rollout, rewards: dict[str, np.ndarray]) -> dict[str, float]:
         """PPO on the rollout, then the style networks, then the normalisers."""
@@ -385,12 +377,7 @@ class Agent:
                 demo = self._demo_windows(g, batch)
                 index = self.rng.integers(0, len(current[name]), batch)
                 fresh = current[name][index]
-                replay = self.replay[name]
-                policy = (
-                    fresh
-                    if replay.size == 0
-                    else np.concatenate([fresh[: batch // 2], replay.sample(batch - batch // 2, self.rng)])
-                )
+                policy = self.replay[name].mix(fresh, self.rng)
                 demo_in = network.normalize(torch.as_tensor(demo))
                 policy_in = network.normalize(torch.as_tensor(policy))
                 group_loss, group_stats = discriminator_loss(
@@ -411,9 +398,7 @@ class Agent:
                 loss.backward()
                 self.style_optimizer.step()
         for g in self.groups:
-            windows = current[g.name]
-            keep = self.rng.random(len(windows)) < s.replay_keep
-            self.replay[g.name].add(windows[keep])
+            self.replay[g.name].keep(current[g.name], s.replay_keep, self.rng)
         return stats
 
     def iteration(self) -> dict[str, float]:
@@ -442,10 +427,8 @@ class Agent:
             "reward": float(rewards["total"].mean()),
             "falls": int(rollout.terminated.sum() - rollout.style_terminated.sum()),
             "style_terminations": int(rollout.style_terminated.sum()),
-            "episode_length": float(np.mean(self.episode_lengths)) if self.episode_lengths else float("nan"),
+            **self.episodes.stats(),
         }
-        if self.episode_successes:
-            stats["success_rate"] = float(np.mean(self.episode_successes))
         stats |= {key: float(value.mean()) for key, value in rewards.items() if key != "total"}
         if "task" in rewards:  # a skill's one-level run: eq. (3)'s terms under the names the two-level runs use
             stats |= {"reward/task": stats["task"], "reward/style": stats["style"]}
@@ -499,14 +482,13 @@ class Agent:
             "actor_optimizer": self.ppo.actor_optimizer.state_dict(),
             "critic_optimizer": self.ppo.critic_optimizer.state_dict(),
             "style_optimizer": self.style_optimizer.state_dict(),
-            "replay": {g: {k: _tensor(v) for k, v in b.state_dict().items()} for g, b in self.replay.items()},
-            "latents": _tensors(self.latents.state_dict()),
+            "replay": {g: to_tensors(b.state_dict()) for g, b in self.replay.items()},
+            "latents": to_tensors(self.latents.state_dict()),
             "numpy_rng": self.rng.bit_generator.state,
             "torch_generator": self.generator.get_state(),
             "torch_rng": torch.get_rng_state(),
             "counters": dict(self.counters),
-            "episode_lengths": list(self.episode_lengths),
-            "episode_successes": list(self.episode_successes),
+            **self.episodes.state_dict(),
         }
 
     def load_state_dict(self, state: dict) -> None:
@@ -516,14 +498,13 @@ class Agent:
         self.ppo.critic_optimizer.load_state_dict(state["critic_optimizer"])
         self.style_optimizer.load_state_dict(state["style_optimizer"])
         for g, b in self.replay.items():
-            b.load_state_dict({k: _array(v) for k, v in state["replay"][g].items()})
-        self.latents.load_state_dict(_arrays(state["latents"]))
+            b.load_state_dict(to_arrays(state["replay"][g]))
+        self.latents.load_state_dict(to_arrays(state["latents"]))
         self.rng.bit_generator.state = state["numpy_rng"]
         self.generator.set_state(state["torch_generator"])
         torch.set_rng_state(state["torch_rng"])
         self.counters = dict(state["counters"])
-        self.episode_lengths = deque(state["episode_lengths"], maxlen=200)
-        self.episode_successes = deque(state.get("episode_successes", []), maxlen=200)
+        self.episodes.load_state_dict(state)
         self._reset_envs()
 
 
@@ -532,19 +513,3 @@ def _jitter_scale(obs: torch.Tensor) -> torch.Tensor:
     column's: a joint a clip holds still still gets jitter of a usual size."""
     spread = obs.std(0)
     return spread.clamp_min(float(spread.median()))
-
-
-def _tensor(value):
-    return torch.as_tensor(value) if isinstance(value, np.ndarray) else value
-
-
-def _array(value):
-    return value.numpy() if isinstance(value, torch.Tensor) else value
-
-
-def _tensors(tree: dict) -> dict:
-    return {k: _tensors(v) if isinstance(v, dict) else _tensor(v) for k, v in tree.items()}
-
-
-def _arrays(tree: dict) -> dict:
-    return {k: _arrays(v) if isinstance(v, dict) else _array(v) for k, v in tree.items()}

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from hotu_drake.learning.buffers import ReplayBuffer
+from hotu_drake.learning.buffers import ReplayBuffer, to_arrays, to_tensors
 from hotu_drake.learning.models import StyleNetwork
 from hotu_drake.learning.skill_config import InteractionConfig
 from hotu_drake.learning.style import discriminator_loss, style_reward
@@ -54,11 +54,7 @@ class InteractionJudge:
         stats: dict[str, float] = {}
         for _ in range(c.updates):
             demo = self.demos[self.rng.integers(0, len(self.demos), c.batch_size)]
-            fresh = pairs[self.rng.integers(0, len(pairs), c.batch_size)]
-            half = c.batch_size // 2
-            policy = fresh
-            if self.replay.size:
-                policy = np.concatenate([fresh[:half], self.replay.sample(c.batch_size - half, self.rng)])
+            policy = self.replay.mix(pairs[self.rng.integers(0, len(pairs), c.batch_size)], self.rng)
             loss, batch_stats = discriminator_loss(
                 self.network,
                 self.network.normalize(torch.as_tensor(demo)),
@@ -73,20 +69,14 @@ class InteractionJudge:
             for k, v in batch_stats.items():
                 key = f"interaction_discriminator/{k}"
                 stats[key] = stats.get(key, 0.0) + v / c.updates
-        keep = self.rng.random(len(pairs)) < c.replay_keep
-        self.replay.add(pairs[keep])
+        self.replay.keep(pairs, c.replay_keep, self.rng)
         return stats
 
     def state_dict(self) -> dict:
-        replay = {k: _tensor(v) for k, v in self.replay.state_dict().items()}
+        replay = to_tensors(self.replay.state_dict())
         return {"network": self.network.state_dict(), "optimizer": self.optimizer.state_dict(), "replay": replay}
 
     def load_state_dict(self, state: dict) -> None:
         self.network.load_state_dict(state["network"])
         self.optimizer.load_state_dict(state["optimizer"])
-        replay = {k: v.numpy() if isinstance(v, torch.Tensor) else v for k, v in state["replay"].items()}
-        self.replay.load_state_dict(replay)
-
-
-def _tensor(value):
-    return torch.as_tensor(value) if isinstance(value, np.ndarray) else value
+        self.replay.load_state_dict(to_arrays(state["replay"]))

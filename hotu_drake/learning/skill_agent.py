@@ -27,12 +27,12 @@ from __future__ import annotations
 
 import math
 import time
-from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
 import torch
 
+from hotu_drake.learning.buffers import EpisodeLog
 from hotu_drake.learning.interaction import InteractionJudge
 from hotu_drake.learning.low_level import LowLevelController
 from hotu_drake.learning.models import ActorCritic
@@ -99,6 +99,7 @@ class SkillAgent:
         self.rng = np.random.default_rng(seed)
         self.generator = torch.Generator().manual_seed(seed)
         self.groups, self.latent_size = llc.latent_groups, llc.latent_size
+        self.episodes = EpisodeLog(self.num_envs)
         self._reset_envs()
         interaction_size = self._interaction.shape[1]
         h = config.high_level
@@ -115,8 +116,6 @@ class SkillAgent:
                 raise ValueError(f"demonstrations of s_I size {size}, the task's is {interaction_size}")
             self.judge = InteractionJudge(interaction_demos, config.interaction, self.rng)
         self.counters = {"iteration": 0, "samples": 0, "episodes": 0, "falls": 0, "successes": 0, "seconds": 0.0}
-        self.episode_lengths: deque = deque(maxlen=200)
-        self.episode_successes: deque = deque(maxlen=200)
 
     # -- environments ------------------------------------------------------------
 
@@ -124,7 +123,7 @@ class SkillAgent:
         observations, info = self.envs.reset(seed=int(self.rng.integers(2**31)))
         self._observations = observations
         self._interaction = _interaction(info, self.num_envs)
-        self._steps = np.zeros(self.num_envs, dtype=np.int64)
+        self.episodes.restart()
 
     # -- policy ------------------------------------------------------------------
 
@@ -239,16 +238,9 @@ class SkillAgent:
 
     def _bookkeeping(self, done: np.ndarray, terminated: np.ndarray, info: dict) -> None:
         """Episode lengths, falls and successes of the environments whose episode ended."""
-        self._steps += 1
-        final = info.get("final_info", {})
-        for i in np.flatnonzero(done):
-            self.episode_lengths.append(int(self._steps[i]))
-            success = bool(np.asarray(final.get("success", np.zeros(self.num_envs, bool)))[i])
-            self.episode_successes.append(success)
-            self.counters["successes"] += int(success)
+        self.counters["successes"] += self.episodes.step(done, info)
         self.counters["episodes"] += int(done.sum())
         self.counters["falls"] += int(terminated.sum())
-        self._steps[done] = 0
 
     def update(self, rollout: SkillRollout) -> dict[str, float]:
         c = self.config
@@ -285,8 +277,7 @@ class SkillAgent:
             "samples_per_second": rollout.control_steps / (end - start),
             "reward": float(rollout.rewards.mean()),
             "falls": int(rollout.terminated.sum()),
-            "episode_length": float(np.mean(self.episode_lengths)) if self.episode_lengths else float("nan"),
-            "success_rate": float(np.mean(self.episode_successes)) if self.episode_successes else float("nan"),
+            **self.episodes.stats(),
         }
         stats |= {f"reward/{name}": float(values.mean()) for name, values in rollout.terms.items()}
         if self.judge is None:  # no D_I (ase): no interaction term to log
@@ -305,8 +296,7 @@ class SkillAgent:
             "torch_generator": self.generator.get_state(),
             "torch_rng": torch.get_rng_state(),
             "counters": dict(self.counters),
-            "episode_lengths": list(self.episode_lengths),
-            "episode_successes": list(self.episode_successes),
+            **self.episodes.state_dict(),
         }
 
     def load_state_dict(self, state: dict) -> None:
@@ -319,8 +309,7 @@ class SkillAgent:
         self.generator.set_state(state["torch_generator"])
         torch.set_rng_state(state["torch_rng"])
         self.counters = dict(state["counters"])
-        self.episode_lengths = deque(state["episode_lengths"], maxlen=200)
-        self.episode_successes = deque(state["episode_successes"], maxlen=200)
+        self.episodes.load_state_dict(state)
         self._reset_envs()
 
 

@@ -134,7 +134,8 @@ def AddSkillPolicy(
 ) -> SkillPolicySystem:
     """Add a `SkillPolicySystem` named `skill` for a skill checkpoint's
     network and `meta`, fed by the robot's observation, the task's goal and
-    s_I; connect its `latent_<group>` outputs to the controller's inputs."""
+    s_I; `AddPolicy(..., latents=skill)` connects its `latent_<group>`
+    outputs to the controller's inputs."""
     system = SkillPolicySystem(
         network,
         list(meta["llc_groups"]),
