@@ -35,6 +35,7 @@ from hotu_drake.learning.buffers import EpisodeLog, ReplayBuffer, Rollout, to_ar
 from hotu_drake.learning.config import TrainConfig
 from hotu_drake.learning.demonstrations import Demonstrations
 from hotu_drake.learning.latents import LatentSchedule, sample_sphere
+from hotu_drake.learning.logger import count_iteration
 from hotu_drake.learning.models import ActorCritic, StyleNetwork
 from hotu_drake.learning.parts import PartGroup, resolve_groups
 from hotu_drake.learning.policy import PolicyConfig
@@ -415,15 +416,8 @@ class Agent:
         self.model.train()
         stats = self.update(rollout, rewards)
         end = time.perf_counter()
-        self.counters["iteration"] += 1
-        self.counters["samples"] += rollout.num_samples
-        self.counters["seconds"] += end - start
+        stats |= count_iteration(self.counters, rollout.num_samples, start, collected, end)
         stats |= {
-            "samples": self.counters["samples"],
-            "rollout_seconds": collected - start,
-            "update_seconds": end - collected,
-            "learner_share": (end - collected) / (end - start),
-            "samples_per_second": rollout.num_samples / (end - start),
             "reward": float(rewards["total"].mean()),
             "falls": int(rollout.terminated.sum() - rollout.style_terminated.sum()),
             "style_terminations": int(rollout.style_terminated.sum()),

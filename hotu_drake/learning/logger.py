@@ -69,6 +69,22 @@ def _tensorboard(folder: Path, resume_iteration: int | None):
     return SummaryWriter(str(folder), purge_step=resume_iteration)
 
 
+def count_iteration(counters: dict, samples: int, start: float, collected: float, end: float) -> dict[str, float]:
+    """Add one iteration of `samples` (collected from `start` to `collected`,
+    learned from until `end`, perf-counter seconds) to a trainer's
+    `counters`; its pace, as the metrics log records it."""
+    counters["iteration"] += 1
+    counters["samples"] += samples
+    counters["seconds"] += end - start
+    return {
+        "samples": counters["samples"],
+        "rollout_seconds": collected - start,
+        "update_seconds": end - collected,
+        "learner_share": (end - collected) / (end - start),
+        "samples_per_second": samples / (end - start),
+    }
+
+
 class Progress:
     """One status line: samples, rate, the mean style reward per group (or other `label`led terms), ETA.
     Rewritten in place on a terminal; a full line every `every` seconds otherwise."""

@@ -34,6 +34,7 @@ import torch
 
 from hotu_drake.learning.buffers import EpisodeLog
 from hotu_drake.learning.interaction import InteractionJudge
+from hotu_drake.learning.logger import count_iteration
 from hotu_drake.learning.low_level import LowLevelController
 from hotu_drake.learning.models import ActorCritic
 from hotu_drake.learning.policy import PolicyConfig
@@ -266,15 +267,8 @@ class SkillAgent:
         self.model.train()
         stats = self.update(rollout)
         end = time.perf_counter()
-        self.counters["iteration"] += 1
-        self.counters["samples"] += rollout.control_steps
-        self.counters["seconds"] += end - start
+        stats |= count_iteration(self.counters, rollout.control_steps, start, collected, end)
         stats |= {
-            "samples": self.counters["samples"],
-            "rollout_seconds": collected - start,
-            "update_seconds": end - collected,
-            "learner_share": (end - collected) / (end - start),
-            "samples_per_second": rollout.control_steps / (end - start),
             "reward": float(rollout.rewards.mean()),
             "falls": int(rollout.terminated.sum()),
             **self.episodes.stats(),
