@@ -74,6 +74,37 @@ def test_policy_drives_the_pd_targets_through_the_action_scaling(tmp_path):
     np.testing.assert_array_equal(desired[n:], np.zeros(n))
 
 
+def test_policy_diagram_replays_the_environments_episode(tmp_path):
+    """The plant applies each new action at the instant it is chosen, as in
+    the environment a policy was trained in: a one-step delay in the
+    diagram made trained policies fall in replays that stood in training."""
+    import dataclasses
+
+    import gymnasium as gym
+
+    import hotu_drake.envs  # noqa: F401
+
+    env = gym.make("hotu_drake/Imitation-v0", robot="h1", hands="none", motions=["walk"], drop_height=0.0)
+    unwrapped = env.unwrapped
+    network = policy_for(unwrapped.embodiment, seed=3)
+    path = save_checkpoint(tmp_path / "policy.pt", network, "h1", "none")
+    latents = {part: torch.zeros(1, size) for part, size in network.config.latent_sizes.items()}
+    observation, _ = env.reset(seed=0, options={"init": "default"})
+    env_observations = []
+    for _ in range(10):
+        with torch.no_grad():
+            action = network(torch.as_tensor(observation, dtype=torch.float32)[None], latents)[0].numpy()
+        observation, *_ = env.step(action)
+        env_observations.append(observation)
+    scenario = dataclasses.replace(
+        unwrapped.sim.scenario, driver=PolicyCheckpoint(str(path), latents="zero"), objects=[]
+    )
+    sim = build_simulation(scenario)
+    for step, expected in enumerate(env_observations, start=1):
+        sim.simulator.AdvanceTo(step * unwrapped.control_period)
+        np.testing.assert_allclose(sim.output("observation"), expected, atol=1e-4, err_msg=f"step {step}")
+
+
 def test_a_checkpoint_for_another_robot_is_refused(tmp_path):
     path = save_checkpoint(tmp_path / "udh.pt", policy_for(embodiment.load("udh", "none")), "udh", "none")
     with pytest.raises(UserError, match="udh.pt.*drives udh"):

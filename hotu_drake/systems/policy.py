@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from pydrake.systems.framework import Context, DiagramBuilder, LeafSystem, OutputPort
+from pydrake.systems.framework import BasicVector, Context, DiagramBuilder, LeafSystem, OutputPort
 from pydrake.systems.primitives import ConstantVectorSource
 
 from hotu_drake.cli import UserError
@@ -79,8 +79,11 @@ class PolicySystem(LeafSystem):
         output_ports:
         - action
 
-    `action` is discrete state, updated every control period and served
-    from the state by Drake itself (no Python call per plant step).
+    Discrete state: the held action and the time of the next update. At an
+    update instant `action` is the network's answer to the current inputs,
+    so the plant's step at that instant applies it, as the environments do
+    (a state output would reach the plant one plant step late); between
+    updates it is the held action.
     """
 
     def __init__(self, network: PolicyNetwork, control_rate: float = CONTROL_RATE):
@@ -91,9 +94,12 @@ class PolicySystem(LeafSystem):
         self._latent_ports = {
             part: self.DeclareVectorInputPort(f"latent_{part}", size) for part, size in config.latent_sizes.items()
         }
-        self._action = self.DeclareDiscreteState(config.action_size)
-        self.DeclarePeriodicDiscreteUpdateEvent(1.0 / control_rate, 0.0, self._Act)
-        self.DeclareStateOutputPort("action", self._action)
+        self._period = 1.0 / control_rate
+        self._state = self.DeclareDiscreteState(np.zeros(config.action_size + 1))  # action, next update time
+        self._output = self.DeclareVectorOutputPort(
+            "action", config.action_size, self._CalcAction, prerequisites_of_calc={self.all_sources_ticket()}
+        )
+        self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._Update)
 
     @staticmethod
     def from_checkpoint(path: str | Path, control_rate: float = CONTROL_RATE) -> PolicySystem:
@@ -104,14 +110,23 @@ class PolicySystem(LeafSystem):
         """Functional part -> its latent input port."""
         return dict(self._latent_ports)
 
-    def _Act(self, context: Context, discrete_state) -> None:
+    def _act(self, context: Context) -> np.ndarray:
+        """The network's action for the current inputs."""
         observation = torch.as_tensor(self._observation.Eval(context), dtype=torch.float32)
         latents = {
             part: torch.as_tensor(port.Eval(context), dtype=torch.float32) for part, port in self._latent_ports.items()
         }
         with torch.no_grad():
-            action = self._network(observation, latents).numpy().astype(np.float64)
-        discrete_state.set_value(self._action, action)
+            return self._network(observation, latents).numpy().astype(np.float64)
+
+    def _CalcAction(self, context: Context, output: BasicVector) -> None:
+        state = context.get_discrete_state(self._state).get_value()
+        due = context.get_time() >= state[-1] - 1e-6 * self._period
+        output.SetFromVector(self._act(context) if due else state[:-1])
+
+    def _Update(self, context: Context, discrete_state) -> None:
+        action = self._output.Eval(context)  # due now: the network's answer, computed once
+        discrete_state.set_value(self._state, np.append(action, context.get_time() + self._period))
 
 
 def AddPolicy(
