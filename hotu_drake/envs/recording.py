@@ -17,12 +17,11 @@ from collections.abc import Callable
 
 import numpy as np
 
+from hotu_drake.embodiment.spec import FOOT_ROLES
 from hotu_drake.envs.base import DiagramEnv
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.objects import object_body
 from hotu_drake.plant import actuated_state_indices
-
-FOOT_ROLES = ("left_foot", "right_foot")
 
 
 class EpisodeRecorder:
@@ -38,17 +37,14 @@ class EpisodeRecorder:
         self._key_bodies = [plant.GetBodyByName(emb.key_bodies[r], model) for r in self._key_names]
         self._objects = [o for o in sim.scenario.objects if o.is_task_object]
         self._object_bodies = [object_body(plant, sim.objects, o) for o in self._objects]
-        self._feet = {r: self._key_bodies[self._key_names.index(r)].index() for r in FOOT_ROLES if r in emb.key_bodies}
+        feet = [r for r in FOOT_ROLES if r in emb.key_bodies]
+        self._feet = {r: plant.GetBodyByName(emb.key_bodies[r], model).index() for r in feet}
         self._frames: list[dict] = []
-
-    def clear(self) -> None:
-        self._frames.clear()
 
     def capture(self) -> None:
         """Add the environment's current state as the next frame."""
-        env, plant = self._env, self._env.sim.plant
-        context = plant.GetMyContextFromRoot(env._context)
-        state = plant.GetPositionsAndVelocities(context, env.sim.model)
+        plant, context = self._env.sim.plant, self._env._plant_context
+        state = plant.GetPositionsAndVelocities(context, self._env.sim.model)
         root = plant.EvalBodyPoseInWorld(context, self._root)
         twist = plant.EvalBodySpatialVelocityInWorld(context, self._root)
         touching = self._touching_bodies(context)
