@@ -114,6 +114,35 @@ TABLE_TOP = OBJECT_MODELS["table"].shape("top").top  # m above the floor
 DRILL_BASE = -OBJECT_MODELS["drill"].shape("battery").bottom  # m from the grip centre down to the battery's bottom
 
 
+def object_kind(name: str) -> str | None:
+    """The object model a clip's track `name` is of: the model whose name it
+    starts with, in any case (`box`, `Box1`, an OptiTrack `box_small`), or None."""
+    lowered = name.lower()
+    return next((kind for kind in OBJECTS if lowered.startswith(kind)), None)
+
+
+def resting_height(name: str) -> float:
+    """How far an object's pose sits above the surface it rests on (the
+    lowest point of its shapes below the frame; 0 for an unknown track)."""
+    kind = object_kind(name)
+    if kind is None:
+        return 0.0
+    return max(0.0, -min(s.bottom for s in OBJECT_MODELS[kind].shapes))
+
+
+def scale_object_poses(names: list[str], poses: np.ndarray, ratio: float) -> np.ndarray:
+    """Object tracks (T, K, 7) for a body `ratio` times the size: positions
+    scaled about the world origin as the retargeted root is (x, y by
+    `ratio`), heights scaled above each object's resting height so that an
+    object on the floor stays on it and one at hand height comes to the
+    scaled hands; orientations unchanged."""
+    scaled = np.array(poses, dtype=float, copy=True)
+    rest = np.array([resting_height(n) for n in names])
+    scaled[..., :2] *= ratio
+    scaled[..., 2] = rest + (scaled[..., 2] - rest) * ratio
+    return scaled
+
+
 def object_sdf(name: str) -> str:
     """The SDF text of object `name` (what `models/objects/<name>.sdf` holds)."""
     model = OBJECT_MODELS[name]

@@ -12,8 +12,10 @@ from hotu_drake.motion.bvh import read_bvh, write_udh_bvh
 from hotu_drake.motion.c3d import load_c3d_clip, write_c3d
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import human_clip
+from hotu_drake.motion.library import generate
 from hotu_drake.motion.marker_sets import udh_markers
 from hotu_drake.motion.udh_skeleton import udh_landmarks
+from hotu_drake.objects import BOX_SIZE
 from hotu_drake.retarget.metrics import report
 from hotu_drake.retarget.pipeline import ROBOTS, to_robot, to_udh
 from tests.clips import udh_test_clip
@@ -82,6 +84,28 @@ def test_smaller_robots_take_proportionally_shorter_strides(udh_walk):
     bruce_travel = np.linalg.norm(bruce.root_position[-1, :2] - bruce.root_position[0, :2])
     ratio = embodiment.load("bruce").standing_pelvis_height / embodiment.load("udh").standing_pelvis_height
     assert bruce_travel / udh_travel == pytest.approx(ratio, rel=0.3)
+
+
+def test_object_tracks_are_scaled_to_each_robot():
+    """The box carry's box: on the floor it stays on the floor, in the hands
+    it comes to each robot's own hands; Bruce's track is the UDH's at Bruce's
+    size, H1's nearly the UDH's."""
+    udh = to_udh(generate("box_carry"), "none").clip
+    lifted = int(np.argmax(udh.object_poses[:, 0, 2]))
+    for robot, scale in (("h1", (0.9, 1.1)), ("bruce", (0.4, 0.6))):
+        clip = to_robot(udh, robot, "none").clip
+        assert clip.object_names == udh.object_names
+        track, source = clip.object_poses[:, 0], udh.object_poses[:, 0]
+        assert track[0, 2] == pytest.approx(source[0, 2]) == pytest.approx(BOX_SIZE / 2)  # resting on the floor
+        ratio = np.linalg.norm(track[:, :2], axis=1) / np.linalg.norm(source[:, :2], axis=1)
+        assert scale[0] < ratio.min() and ratio.max() - ratio.min() < 1e-9 and ratio.max() < scale[1]
+        np.testing.assert_allclose(track[:, 3:], source[:, 3:])
+        emb = embodiment.load(robot, "none")
+        hands = [clip.key_body_names.index(emb.key_bodies[h]) for h in ("left_hand", "right_hand")]
+        between = clip.key_body_positions[lifted, hands].mean(axis=0)
+        assert np.linalg.norm(track[lifted, :3] - between) < 0.3
+        if robot == "bruce":  # unscaled, the box would float far from Bruce's hands
+            assert np.linalg.norm(source[lifted, :3] - between) > 0.6
 
 
 def test_curi_base_follows_the_pelvis(udh_walk):

@@ -18,6 +18,7 @@ from hotu_drake.embodiment.landmarks import landmark_placements
 from hotu_drake.embodiment.spec import FINGERS, SIDES
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import landmarks_of
+from hotu_drake.objects import scale_object_poses
 from hotu_drake.retarget import frames
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
 from hotu_drake.retarget.part_ik import PartProblem
@@ -313,7 +314,7 @@ class Retargeter:
             body = {name: value[t : t + 1] for name, value in src_frames.items()}
             planted = {side: bool(flags[t]) for side, flags in contacts.items()}
             out_q[t], out_rotation[t], out_position[t] = stream.push(frame, body, planted)
-        return self._clip(out_q, out_rotation, out_position, fps, source, contacts)
+        return self._clip(out_q, out_rotation, out_position, fps, source, contacts, stream.ratio)
 
     def _body_pose(self, q, root_rotation, root_position):
         """Poses of every link but the fingers."""
@@ -379,7 +380,9 @@ class Retargeter:
         rows.append(orientation.rows(self.marks, pose, joints, foot_frame))
         q[joints] += problem.step(rows, q[joints], q[joints])
 
-    def _clip(self, q, rotations, positions, fps, source, contacts) -> MotionClip:
+    def _clip(self, q, rotations, positions, fps, source, contacts, ratio: float = 1.0) -> MotionClip:
+        """The retargeted clip; the source's object tracks scaled by the
+        body-size `ratio` the root was scaled by (`objects.scale_object_poses`)."""
         quaternions = matrix_to_quat(rotations)
         key_names = list(self.embodiment.key_bodies.values())
         key_names = list(dict.fromkeys(key_names))
@@ -389,6 +392,9 @@ class Retargeter:
             pose = self._body_pose(q[t], rotations[t], positions[t])
             key_positions[t] = pose.positions[key_index]
         contact_names = [f"{s}_foot" for s in SIDES if s in contacts]
+        objects = None
+        if source is not None and source.object_poses is not None:
+            objects = scale_object_poses(list(source.object_names), source.object_poses, ratio)
         contact_values = np.stack([contacts[s] for s in SIDES if s in contacts], axis=1) if contacts else None
         return MotionClip.from_positions(
             self.embodiment.name,
@@ -402,7 +408,7 @@ class Retargeter:
             key_positions,
             part_index=self.embodiment.parts,
             object_names=list(source.object_names) if source is not None else [],
-            object_poses=source.object_poses if source is not None else None,
+            object_poses=objects,
             contact_names=contact_names if contacts else [],
             contacts=contact_values,
         )
