@@ -8,6 +8,8 @@
     python -m hotu_drake.train trace runs/h1_upper --out trace.png [--parts shoulder,elbow] [--seed 7]
     python -m hotu_drake.train skill --task box_carry --llc runs/udh_dail --algo ours --steps 2000000 \
         --out runs/udh_box_ours     (see hotu_drake.train_skill)
+    python -m hotu_drake.train finetune --robot h1 --skill runs/udh_box_ours --llc runs/h1_dail --steps 300000 \
+        --out runs/h1_box           (see hotu_drake.train_finetune)
 
 `pretrain` builds the run's demonstrations from the robot's reference clips
 (on the Drake side, once), starts `--workers` environments
@@ -89,12 +91,15 @@ def main(argv: list[str] | None = None) -> int:
     trace.add_argument("--parts", default="shoulder,elbow,wrist,hip,knee", help="Table I parts to draw")
     trace.add_argument("--seed", type=int, default=7, help="the episode's seed (its drop and latents)")
     trace.add_argument("--min-range", type=float, default=15.0, help="draw joints the references move this far (deg)")
-    from hotu_drake import train_skill
+    from hotu_drake import train_finetune, train_skill
 
     train_skill.add_parser(sub)
+    train_finetune.add_parser(sub)
     args = parser.parse_args(argv)
     if args.command == "skill":
         return train_skill.skill_command(args)
+    if args.command == "finetune":
+        return train_finetune.finetune_command(args)
     if args.command == "trace":
         return trace_command(args)
     if args.command == "pretrain":

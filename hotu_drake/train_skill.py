@@ -42,6 +42,7 @@ from hotu_drake.learning.checkpoint import CheckpointError, read_checkpoint, sav
 from hotu_drake.learning.skill_config import (
     SKILL_ALGORITHMS,
     TASKS,
+    TRANSFER_TASKS,
     TWO_LEVEL,
     SkillConfig,
     load_skill_config,
@@ -79,15 +80,23 @@ def add_parser(sub) -> None:
 
 
 def is_skill_run(run: Path) -> bool:
+    """A run of `train skill` or `train finetune` (a fine-tune is a skill run on tracking)."""
     settings = json.loads((run / "run.json").read_text())
-    return settings.get("command") == "skill"
+    return settings.get("command") in ("skill", "finetune")
+
+
+def read_skill_run(run: Path) -> tuple[dict, dict, SkillConfig]:
+    """A skill run's settings, training checkpoint and configuration."""
+    settings = json.loads((run / "run.json").read_text())
+    checkpoint = read_checkpoint(run / "checkpoint.pt", kind="training")
+    return settings, checkpoint, skill_config_from_dict(checkpoint["meta"]["config"], where=str(run / "checkpoint.pt"))
 
 
 # -- settings ---------------------------------------------------------------------
 
 
 @functools.lru_cache(maxsize=4)
-def _load_controller(path: str):
+def load_controller(path: str):
     """The frozen behavior controller of `--llc`, or the error that names it (read once per path)."""
     from hotu_drake.learning.low_level import LowLevelController
 
@@ -126,7 +135,7 @@ def _settings(args) -> tuple[dict, SkillConfig]:
     if algo in TWO_LEVEL:
         if not args.llc:
             raise UserError(f"--algo {algo} drives a behavior controller: give --llc (a train pretrain run folder)")
-        controller = _load_controller(args.llc)
+        controller = load_controller(args.llc)
         wanted = CONTROLLER_ALGO[algo]
         if controller.config.algo != wanted:
             raise UserError(
@@ -162,16 +171,25 @@ def _settings(args) -> tuple[dict, SkillConfig]:
 def _history(settings: dict, config: SkillConfig) -> int:
     """The AMP window the style judges take: the controller's, or the one-level run's own."""
     if settings["algo"] in TWO_LEVEL:
-        return _load_controller(settings["llc"]).history
+        return load_controller(settings["llc"]).history
     return config.one_level.environment.amp_history
+
+
+def env_id(settings: dict) -> str:
+    """The run's environment: the task's, or its transfer twin for a fine-tune (references to track)."""
+    return TRANSFER_TASKS[settings["task"]] if settings.get("references") else TASKS[settings["task"]]
 
 
 def _env_options(settings: dict, config: SkillConfig, evaluation: bool = False) -> dict:
     e = config.environment
+    if settings.get("references"):  # a fine-tune tracks references (held-out ones in evaluation)
+        clips = {"references": settings["eval_references" if evaluation else "references"]}
+    else:
+        clips = {"motions": settings["motions"]}
     return {
         "robot": settings["robot"],
         "hands": settings["hands"],
-        "motions": settings["motions"],
+        **clips,
         "amp_history": _history(settings, config),
         "termination_height": e.termination_height,
         "reference_init_probability": 0.0 if evaluation else e.reference_init_probability,
@@ -179,7 +197,7 @@ def _env_options(settings: dict, config: SkillConfig, evaluation: bool = False) 
     }
 
 
-def _make_env(settings: dict, config: SkillConfig):
+def make_env(settings: dict, config: SkillConfig, evaluation: bool = False):
     """One task environment in this process (Drake side); a task keyword
     the environment does not take is the configuration's error."""
     import gymnasium as gym
@@ -187,7 +205,7 @@ def _make_env(settings: dict, config: SkillConfig):
     import hotu_drake.envs  # noqa: F401 (registers the environments)
 
     try:
-        return gym.make(TASKS[settings["task"]], **_env_options(settings, config))
+        return gym.make(env_id(settings), **_env_options(settings, config, evaluation))
     except TypeError as error:
         raise InputError(f"the task does not take these keywords ({error})", field="environment.task") from None
 
@@ -200,9 +218,11 @@ def _demonstrations(settings: dict, config: SkillConfig):
     from hotu_drake.envs.demonstrations import build_demonstrations
     from hotu_drake.learning.interaction import transitions
 
-    env = _make_env(settings, config)
+    env = make_env(settings, config)
     try:
         inner = env.unwrapped
+        if settings["algo"] in TWO_LEVEL and not config.uses_interaction:
+            return None, inner.standing_action()
         if settings["algo"] in TWO_LEVEL:
             sequences = inner.interaction_sequences()
             if config.uses_interaction and not sequences:
@@ -217,7 +237,7 @@ def _demonstrations(settings: dict, config: SkillConfig):
 def _vector_env(settings: dict, config: SkillConfig, workers: int, ray: str | None, evaluation: bool = False):
     from hotu_drake.learning.rollout import EnvSpec, make_vector_env
 
-    spec = EnvSpec(TASKS[settings["task"]], _env_options(settings, config, evaluation))
+    spec = EnvSpec(env_id(settings), _env_options(settings, config, evaluation))
     return make_vector_env(spec, workers, backend="ray" if ray else "local", address=ray)
 
 
@@ -234,7 +254,7 @@ def _agent(settings: dict, config: SkillConfig, envs, demos, standing, seed: int
     if settings["algo"] in TWO_LEVEL:
         from hotu_drake.learning.skill_agent import SkillAgent
 
-        return SkillAgent(config, envs, _load_controller(settings["llc"]), demos, seed=seed)
+        return SkillAgent(config, envs, load_controller(settings["llc"]), demos, seed=seed)
     from hotu_drake.learning.agent import Agent
 
     return Agent(_one_level_config(config), envs, demos, action_offset=standing, seed=seed)
@@ -244,9 +264,14 @@ def _agent(settings: dict, config: SkillConfig, envs, demos, standing, seed: int
 
 
 def skill_command(args) -> int:
+    settings, config = _settings(args)
+    return train_skill_run(settings, config, args)
+
+
+def train_skill_run(settings: dict, config: SkillConfig, args) -> int:
+    """Train (or resume) the run in `args.out` to `args.steps` samples, then evaluate it."""
     from hotu_drake.learning.logger import MetricsLog, Progress
 
-    settings, config = _settings(args)
     torch.set_num_threads(config.torch_threads)
     demos, standing = _demonstrations(settings, config)  # bad motions or task keywords fail here
     out = Path(args.out)
@@ -316,9 +341,7 @@ def evaluate_skill_run(run: Path, episodes: int, seed: int, workers: int) -> dic
     scenario of the best episode (`best_episode.yaml`)."""
     from hotu_drake.learning.evaluation import evaluate_task, standing_policy
 
-    settings = json.loads((run / "run.json").read_text())
-    checkpoint = read_checkpoint(run / "checkpoint.pt", kind="training")
-    config = skill_config_from_dict(checkpoint["meta"]["config"], where=str(run / "checkpoint.pt"))
+    settings, checkpoint, config = read_skill_run(run)
     torch.set_num_threads(config.torch_threads)
     demos, standing = _demonstrations(settings, config)
     envs = _vector_env(settings, config, min(workers, episodes), None, evaluation=True)
@@ -334,8 +357,9 @@ def evaluate_skill_run(run: Path, episodes: int, seed: int, workers: int) -> dic
             def controller(observations, interaction, started):
                 return agent.act(observations, {}, deterministic=True)[0]
 
-        result = evaluate_task(envs, controller, episodes, seed)
-        standing_result = evaluate_task(envs, standing_policy(standing), episodes, seed)  # the same tasks
+        task_reward = "task_reward" if settings.get("references") else None  # a fine-tune's reward is tracking
+        result = evaluate_task(envs, controller, episodes, seed, task_reward=task_reward)
+        standing_result = evaluate_task(envs, standing_policy(standing), episodes, seed, task_reward=task_reward)
     finally:
         envs.close()
     standing_result.pop("episodes_detail")
@@ -351,7 +375,7 @@ def evaluate_skill_run(run: Path, episodes: int, seed: int, workers: int) -> dic
         "machine": {"cpu_cores": _cores(), "python": platform.python_version(), "date": date.today().isoformat()},
     }
     write_text_atomic(run / "report.json", json.dumps(report, indent=2) + "\n")
-    if "goal" in detail[best]:
+    if "goal" in detail[best] and not settings.get("references"):
         write_text_atomic(run / "best_episode.yaml", episode_scenario(run, settings, config, detail[best]["goal"]))
     return report
 

@@ -5,7 +5,9 @@ Importing this package registers:
 - `hotu_drake/Imitation-v0` (`imitation.ImitationEnv`): imitate reference
   motions with per-part AMP observations;
 - `hotu_drake/BoxCarry-v0`, `hotu_drake/DrillGrasp-v0` (`tasks`): the
-  method's loco-manipulation tasks with goal, s_I and task reward.
+  method's loco-manipulation tasks with goal, s_I and task reward;
+- `hotu_drake/BoxCarryTransfer-v0`, `hotu_drake/DrillGraspTransfer-v0`
+  (`transfer`): a task on a robot, tracking retargeted UDH skill episodes.
 
 Episodes are cut at 300 control steps (10 s) by gymnasium's TimeLimit.
 The rollout workers (`EnvSpec`, `make_vector_env`, `RolloutCollector`)
@@ -20,6 +22,8 @@ ENV_IDS: dict[str, str] = {
     "hotu_drake/Imitation-v0": "hotu_drake.envs.imitation:ImitationEnv",
     "hotu_drake/BoxCarry-v0": "hotu_drake.envs.tasks:BoxCarryEnv",
     "hotu_drake/DrillGrasp-v0": "hotu_drake.envs.tasks:DrillGraspEnv",
+    "hotu_drake/BoxCarryTransfer-v0": "hotu_drake.envs.transfer:BoxCarryTransferEnv",
+    "hotu_drake/DrillGraspTransfer-v0": "hotu_drake.envs.transfer:DrillGraspTransferEnv",
 }
 MAX_EPISODE_STEPS = 300
 

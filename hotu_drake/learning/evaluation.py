@@ -148,7 +148,14 @@ def _nearest_index(frames: np.ndarray, reference: np.ndarray, chunk: int = 2048)
 TaskController = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
 
 
-def evaluate_task(envs, controller: TaskController, episodes: int = 100, seed: int = 0, max_steps: int = 300) -> dict:
+def evaluate_task(
+    envs,
+    controller: TaskController,
+    episodes: int = 100,
+    seed: int = 0,
+    max_steps: int = 300,
+    task_reward: str | None = None,
+) -> dict:
     """A task policy over the first `episodes` episodes to end in `envs` (a
     vector environment of a task, reset with `seed`: every episode draws its
     own start and target). `controller(observations, interaction, started)`
@@ -158,13 +165,17 @@ def evaluate_task(envs, controller: TaskController, episodes: int = 100, seed: i
     episode over `max_steps`, so in [0, 1], a fall counting what it missed),
     `fall_rate`, `mean_episode_steps`, and per episode its success, return
     and, where the environment gives `info["goal"]`, its start and target,
-    in the order the episodes ended (`episodes_detail`)."""
+    in the order the episodes ended (`episodes_detail`). With `task_reward`,
+    the task's reward is that `info` key (a transfer environment's, whose
+    own reward is tracking), and the environment's reward is reported as
+    `normalized_tracking_return` (per episode `tracking_return`)."""
     n = envs.num_envs
     observations, info = envs.reset(seed=seed)
     interaction = np.asarray(info["interaction"], dtype=np.float32).reshape(n, -1)
     goals = [_goal(info, i) for i in range(n)]
     started = np.ones(n, bool)
     running = np.zeros(n)
+    tracking = np.zeros(n)
     steps = np.zeros(n, dtype=np.int64)
     detail = []
     falls = 0
@@ -172,19 +183,28 @@ def evaluate_task(envs, controller: TaskController, episodes: int = 100, seed: i
         action = controller(observations, interaction, started)
         observations, reward, terminated, truncated, info = envs.step(action)
         interaction = np.asarray(info["interaction"], dtype=np.float32).reshape(n, -1)
-        running += reward
-        steps += 1
         done = terminated | truncated
+        if task_reward is None:
+            running += reward
+        else:
+            tracking += reward
+            running += _info_values(info, task_reward, done)
+        steps += 1
         success = np.asarray(info.get("final_info", {}).get("success", np.zeros(n, bool)))
         for i in np.flatnonzero(done):
             if len(detail) < episodes:
                 falls += int(terminated[i])
                 episode = {"success": bool(success[i]), "return": float(running[i] / max_steps), "steps": int(steps[i])}
+                if task_reward is not None:
+                    episode["tracking_return"] = float(tracking[i] / max_steps)
                 detail.append(episode | ({"goal": goals[i]} if goals[i] else {}))
             goals[i] = _goal(info, i)  # the next episode's, drawn at the same-step reset
-        running[done], steps[done] = 0.0, 0
+        running[done], tracking[done], steps[done] = 0.0, 0.0, 0
         started = done
-    return {
+    figures = {}
+    if task_reward is not None:
+        figures["normalized_tracking_return"] = float(np.mean([d["tracking_return"] for d in detail]))
+    return figures | {
         "episodes": len(detail),
         "success_rate": float(np.mean([d["success"] for d in detail])),
         "normalized_return": float(np.mean([d["return"] for d in detail])),
@@ -192,6 +212,14 @@ def evaluate_task(envs, controller: TaskController, episodes: int = 100, seed: i
         "mean_episode_steps": float(np.mean([d["steps"] for d in detail])),
         "episodes_detail": detail,
     }
+
+
+def _info_values(info: dict, key: str, done: np.ndarray) -> np.ndarray:
+    """`info[key]` of every environment, the ended episodes' from their final info."""
+    values = np.asarray(info[key], dtype=float).copy() if key in info else np.zeros(len(done))
+    if done.any():
+        values[done] = np.asarray(info["final_info"][key], dtype=float)[done]
+    return values
 
 
 def _goal(info: dict, index: int) -> dict:

@@ -27,6 +27,8 @@ SKILL_ALGORITHMS = ("ours", "amp", "ase", "pmp")
 TWO_LEVEL = ("ours", "ase")
 # The method's tasks and their registered environments.
 TASKS = {"box_carry": "hotu_drake/BoxCarry-v0", "drill_grasp": "hotu_drake/DrillGrasp-v0"}
+# Their transfer twins: the task on a robot, tracking retargeted UDH episodes (`train finetune`).
+TRANSFER_TASKS = {"box_carry": "hotu_drake/BoxCarryTransfer-v0", "drill_grasp": "hotu_drake/DrillGraspTransfer-v0"}
 
 
 @dataclass
@@ -148,6 +150,19 @@ def skill_preset(algo: str) -> SkillConfig:
     return config
 
 
+def finetune_preset() -> SkillConfig:
+    """The fine-tuning layer of a transfer (`train finetune`): `ours`'s high
+    level, small, choosing every part's latent at every control step (a
+    latent curve), rewarded by tracking of the retargeted UDH episode
+    (the environment's reward, w_g) and the robot's own part judges (w_b);
+    no D_I. The sizes are this project's choice, not measured against others."""
+    config = skill_preset("ours")
+    config.reward = SkillRewardConfig(task=0.9, interaction=0.0, style=0.1)
+    config.high_level = HighLevelConfig(hold_steps=1, hidden=(64, 64), critic_hidden=(128, 64), std=0.2)
+    config.ppo.horizon = 64
+    return config
+
+
 def skill_config_from_dict(data: dict, where: str = "config") -> SkillConfig:
     """The preset of `data['algo']` with `data`'s fields over it."""
     if not isinstance(data, dict):
@@ -157,6 +172,10 @@ def skill_config_from_dict(data: dict, where: str = "config") -> SkillConfig:
     return config.validate(where)
 
 
-def load_skill_config(path: str | Path, algo: str | None = None) -> SkillConfig:
-    """The preset of `algo` (or of the file's `algo`) overridden by the YAML file at `path`."""
-    return skill_config_from_dict(read_config_file(path, algo, "ours"), str(path))
+def load_skill_config(path: str | Path, algo: str | None = None, base: SkillConfig | None = None) -> SkillConfig:
+    """The preset of `algo` (or of the file's `algo`), or `base`, overridden by the YAML file at `path`."""
+    data = read_config_file(path, algo, "ours")
+    if base is None:
+        return skill_config_from_dict(data, str(path))
+    _merge(base, data, str(path), "")
+    return base.validate(str(path))

@@ -1,0 +1,165 @@
+"""Move a UDH skill to a robot: retarget what it did, fine-tune the robot's layer (`train finetune`).
+
+    python -m hotu_drake.train finetune --robot h1 --skill runs/udh_box_ours --llc runs/h1_dail \\
+        --steps 300000 --out runs/h1_box
+    python -m hotu_drake.train finetune --out runs/h1_box --steps 600000 --resume
+
+Section II-D of the method. The command
+
+1. runs the UDH skill (`--skill`, a two-level `train skill` run) on
+   `--references` seeded task instances (seeds 0, 1, ...) and on
+   `--eval-references` held-out ones (seeds 1000, ...), records each
+   episode and retargets it to `--robot`, objects and targets scaled to the
+   robot (`hotu_drake.transfer`; the clips go to the run's `references/`);
+2. trains the fine-tuning layer (`learning.skill_config.finetune_preset`: a
+   small MLP choosing the latents of the robot's frozen behavior controller
+   `--llc` at every control step) with PPO on the transfer environment
+   (`hotu_drake/BoxCarryTransfer-v0`: the task, the reference's start and
+   target, the reference in the observation, reward = tracking), plus the
+   controller's own style reward;
+3. evaluates it on the held-out references: the task's success and
+   normalised return on the robot (and the tracking return), next to the
+   robot standing on the same instances.
+
+The run folder has the `train skill` layout plus `references/`; `run.json`
+records the seconds the references took (`transfer_seconds`), which count
+toward the transfer's wall-clock with the training's.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+from hotu_drake.cli import UserError
+from hotu_drake.embodiment import EMBODIMENT_NAMES, HANDS_VARIANTS
+from hotu_drake.errors import check_choice, check_number
+from hotu_drake.io import check_output_path
+from hotu_drake.learning.checkpoint import CheckpointError
+from hotu_drake.learning.skill_config import TWO_LEVEL, finetune_preset, load_skill_config, skill_config_from_dict
+from hotu_drake.train import check_run_arguments, resumed_run
+
+EVALUATION_SEED = 1000  # the held-out references' first seed
+
+
+def add_parser(sub) -> None:
+    fine = sub.add_parser("finetune", help="transfer a UDH skill to a robot: retarget its episodes, fine-tune")
+    fine.add_argument("--robot", help=f"the robot ({', '.join(EMBODIMENT_NAMES)}; default: the --llc's)")
+    fine.add_argument("--hands", help="full or none (default: the --llc's)")
+    fine.add_argument("--skill", help="the UDH skill run to transfer (a two-level train skill run folder)")
+    fine.add_argument("--llc", help="the robot's behavior controller (a DAIL train pretrain run folder)")
+    fine.add_argument("--references", type=int, default=8, help="UDH episodes to record and track (default 8)")
+    fine.add_argument("--eval-references", type=int, default=8, help="held-out episodes for the evaluation")
+    fine.add_argument("--steps", type=int, required=True, help="samples (control steps) to train for in total")
+    fine.add_argument("--workers", type=int, help="environment worker processes (default 2)")
+    fine.add_argument("--ray", metavar="ADDRESS", help="run the workers as Ray actors on this cluster")
+    fine.add_argument("--out", required=True, help="the run folder (runs/NAME)")
+    fine.add_argument("--config", help="a YAML file overriding the fine-tune preset (learning.skill_config)")
+    fine.add_argument("--seed", type=int, default=0)
+    fine.add_argument("--resume", action="store_true", help="continue the run in --out from its last checkpoint")
+    fine.add_argument("--checkpoint-every", type=int, help="iterations between checkpoints (default: ~3 minutes)")
+    fine.add_argument("--eval-episodes", type=int, default=16, help="evaluation episodes (0: none)")
+
+
+def finetune_command(args) -> int:
+    from hotu_drake import train_skill
+
+    if args.resume:
+        settings, config = _resumed(args)
+        return train_skill.train_skill_run(settings, config, args)
+    settings, config = _new_run(args)
+    out = Path(args.out)
+    created = not out.exists()
+    staging = out / "references.partial"
+    try:
+        settings |= _record_references(settings, staging)
+        staging.rename(out / "references")
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        if created:
+            shutil.rmtree(out, ignore_errors=True)
+        raise
+    folder = (out / "references").resolve()
+    for key in ("references", "eval_references"):
+        settings[key] = [str(folder / Path(p).name) for p in settings[key]]
+    settings["motions"] = settings["references"]
+    return train_skill.train_skill_run(settings, config, args)
+
+
+def _resumed(args):
+    out = check_run_arguments(args)
+    settings, checkpoint = resumed_run(out)
+    if settings.get("command") != "finetune":
+        raise UserError(f"{out}: not a fine-tune run (resume it with train {settings.get('command', 'pretrain')})")
+    for name in ("robot", "hands"):
+        given = getattr(args, name)
+        if given is not None and given != settings[name]:
+            raise UserError(f"--{name} {given!r}: the run in {out} has {settings[name]!r}")
+    if args.config:
+        raise UserError(f"--config: the run in {out} keeps its configuration (config.yaml)")
+    config = skill_config_from_dict(checkpoint["meta"]["config"], where=str(out / "checkpoint.pt"))
+    settings["workers"] = args.workers or settings.get("workers", 2)
+    return settings, config
+
+
+def _new_run(args) -> tuple[dict, object]:
+    from hotu_drake.train_skill import load_controller, read_skill_run
+
+    out = check_run_arguments(args)
+    if (out / "checkpoint.pt").exists() or (out / "run.json").exists():
+        raise UserError(f"{out}: a run is already here (add --resume to continue it, or choose another --out)")
+    check_output_path(out, folder=True)
+    if not args.skill or not args.llc:
+        raise UserError("finetune needs --skill (the UDH skill run) and --llc (the robot's behavior run)")
+    for name in ("references", "eval_references"):
+        check_number(getattr(args, name), f"--{name.replace('_', '-')}", "finetune", low=1, high=1000, integer=True)
+    skill = Path(args.skill)
+    try:
+        skill_settings, _, _ = read_skill_run(skill)
+    except (OSError, ValueError, KeyError, CheckpointError) as error:
+        raise UserError(f"--skill {skill}: not a skill run folder ({str(error).splitlines()[0][:120]})") from None
+    if skill_settings.get("command") != "skill" or skill_settings.get("algo") not in TWO_LEVEL:
+        raise UserError(f"--skill {skill}: not a two-level train skill run (ours or ase)")
+    controller = load_controller(args.llc)
+    if controller.config.algo != "dail":
+        raise UserError(f"--llc {args.llc}: a {controller.config.algo} controller; the fine-tune drives a dail one")
+    robot = check_choice(args.robot or controller.embodiment, "--robot", EMBODIMENT_NAMES)
+    hands = check_choice(args.hands or controller.hands, "--hands", HANDS_VARIANTS)
+    if (robot, hands) != (controller.embodiment, controller.hands):
+        raise UserError(
+            f"--llc {args.llc}: a controller of {controller.embodiment} hands={controller.hands}, "
+            f"not of {robot} hands={hands}"
+        )
+    config = load_skill_config(args.config, "ours", base=finetune_preset()) if args.config else finetune_preset()
+    settings = {
+        "command": "finetune",
+        "task": skill_settings["task"],
+        "robot": robot,
+        "hands": hands,
+        "algo": "ours",
+        "llc": str(Path(args.llc).resolve()),
+        "skill": str(skill.resolve()),
+        "reference_count": args.references,
+        "eval_reference_count": args.eval_references,
+        "seed": args.seed,
+        "workers": args.workers or 2,
+    }
+    return settings, config
+
+
+def _record_references(settings: dict, folder: Path) -> dict:
+    """The training and held-out references of the run, and what they took."""
+    from hotu_drake.transfer import make_references, skill_summary
+
+    robot, hands, skill = settings["robot"], settings["hands"], settings["skill"]
+    train = range(settings["reference_count"])
+    held_out = range(EVALUATION_SEED, EVALUATION_SEED + settings["eval_reference_count"])
+    references, seconds = make_references(skill, robot, hands, train, folder)
+    evaluation, eval_seconds = make_references(skill, robot, hands, held_out, folder, prefix="eval")
+    return {
+        "references": [str(p) for p in references],
+        "eval_references": [str(p) for p in evaluation],
+        "transfer_seconds": round(seconds, 1),
+        "eval_reference_seconds": round(eval_seconds, 1),
+        "skill_summary": skill_summary(skill),
+    }
