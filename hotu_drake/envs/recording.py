@@ -33,8 +33,8 @@ class EpisodeRecorder:
         plant, model = sim.plant, sim.model
         self._q, self._v = actuated_state_indices(plant, model, emb.joint_names)
         self._root = plant.GetBodyByName(emb.spec.root.name, model)
-        self._key_names = list(emb.key_bodies)
-        self._key_bodies = [plant.GetBodyByName(emb.key_bodies[r], model) for r in self._key_names]
+        self._key_names = list(dict.fromkeys(emb.key_bodies.values()))  # body names, as retargeted clips have
+        self._key_bodies = [plant.GetBodyByName(name, model) for name in self._key_names]
         self._objects = [o for o in sim.scenario.objects if o.is_task_object]
         self._object_bodies = [object_body(plant, sim.objects, o) for o in self._objects]
         feet = [r for r in FOOT_ROLES if r in emb.key_bodies]
