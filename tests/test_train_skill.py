@@ -124,3 +124,85 @@ def test_plot_draws_the_reward_terms_of_every_method(runs, tmp_path):
 
     with pytest.raises(UserError, match="no metric 'reward/grip'"):
         main(["plot", str(runs["amp"]), "--out", str(tmp_path / "x.png"), "--keys", "reward/grip"])
+
+
+FINETUNE = """\
+ppo: {horizon: 8, minibatch_size: 16, epochs: 2}
+high_level: {hidden: [16], critic_hidden: [16]}
+torch_threads: 1
+"""
+
+
+@pytest.fixture(scope="module")
+def transfer(runs, tmp_path_factory):
+    """The tiny UDH skill moved to H1: a tiny H1 controller, one reference and one held-out, 16 samples."""
+    import gymnasium as gym
+
+    folder = tmp_path_factory.mktemp("transfer")
+    (folder / "behavior.yaml").write_text(BEHAVIOR)
+    (folder / "finetune.yaml").write_text(FINETUNE)
+    llc = folder / "h1_dail"
+    common = ["--workers", "1", "--config"]
+    assert main(["pretrain", "--robot", "h1", "--motions", "walk,box_carry", "--steps", "32", "--out", str(llc),
+                 *common, str(folder / "behavior.yaml"), "--eval-episodes", "0"]) == 0  # fmt: skip
+    out = folder / "h1_box"
+    argv = ["finetune", "--skill", str(runs["ours"]), "--llc", str(llc), "--references", "1", "--eval-references", "1"]
+    argv += ["--steps", "16", "--eval-episodes", "1", "--out", str(out), *common, str(folder / "finetune.yaml")]
+    assert main(argv) == 0
+    assert gym  # the environments were registered by the run
+    return out
+
+
+def test_a_finetune_run_records_its_references_and_judges_the_task(transfer):
+    settings = json.loads((transfer / "run.json").read_text())
+    assert settings["command"] == "finetune" and settings["robot"] == "h1" and settings["transfer_seconds"] > 0
+    for key, name in (("references", "reference_0.npz"), ("eval_references", "eval_1000.npz")):
+        assert [p.split("/")[-1] for p in settings[key]] == [name] and (transfer / "references" / name).is_file()
+    assert (transfer / "references" / "udh_reference_0.npz").is_file()
+    assert not (transfer / "references.partial").exists()
+    report = json.loads((transfer / "report.json").read_text())
+    evaluation = report["evaluation"]
+    assert 0.0 <= evaluation["normalized_tracking_return"] <= 1.0 and 0.0 <= evaluation["normalized_return"] <= 1.0
+    assert "normalized_tracking_return" in evaluation["standing"]
+    lines = [json.loads(line) for line in (transfer / "metrics.jsonl").read_text().splitlines()]
+    assert lines[-1]["samples"] == 16 and np.isfinite(lines[-1]["reward/task"])
+    assert "reward/interaction" not in lines[-1]  # no D_I in a fine-tune
+
+
+def test_the_fine_tuning_layer_gives_a_latent_on_each_parts_sphere(transfer):
+    import gymnasium as gym
+
+    settings = json.loads((transfer / "run.json").read_text())
+    layer, data = load_checkpoint(transfer / "policy.pt")
+    meta = data["meta"]
+    assert meta["hold_steps"] == 1 and len(meta["llc_groups"]) == 4  # H1's part groups, a latent every step
+    env = gym.make("hotu_drake/BoxCarryTransfer-v0", robot="h1", hands="none", references=settings["references"])
+    observation, info = env.reset(seed=0)
+    inputs = [high_level_input(observation[None], info["interaction"][None])]
+    for _ in range(3):
+        observation, _, _, _, info = env.step(env.action_space.sample())
+        inputs.append(high_level_input(observation[None], info["interaction"][None]))
+    env.close()
+    with torch.no_grad():
+        raw = layer.mean(torch.as_tensor(np.concatenate(inputs))).numpy()
+    latents = to_latents(raw, meta["llc_groups"], meta["latent_size"])
+    for group, z in latents.items():
+        assert z.shape == (4, meta["latent_size"]), group
+        np.testing.assert_allclose(np.linalg.norm(z, axis=1), 1.0, atol=1e-5)
+
+
+def test_a_finetune_run_resumes_and_refuses_a_skill_that_is_not_two_level(transfer, runs, tmp_path):
+    import shutil
+
+    from hotu_drake.cli import UserError
+
+    run = tmp_path / "h1_box"
+    shutil.copytree(transfer, run)
+    assert main(["finetune", "--out", str(run), "--steps", "24", "--resume", "--eval-episodes", "0"]) == 0
+    lines = [json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines()]
+    assert [line["samples"] for line in lines] == [8, 16, 24]  # 8 control steps an iteration
+    settings = json.loads((transfer / "run.json").read_text())
+    out = tmp_path / "bad"
+    with pytest.raises(UserError, match="not a two-level train skill run"):
+        main(["finetune", "--skill", str(runs["amp"]), "--llc", settings["llc"], "--steps", "8", "--out", str(out)])
+    assert not out.exists()
