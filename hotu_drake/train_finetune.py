@@ -28,6 +28,7 @@ toward the transfer's wall-clock with the training's.
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -35,7 +36,6 @@ from hotu_drake.cli import UserError
 from hotu_drake.embodiment import EMBODIMENT_NAMES, HANDS_VARIANTS
 from hotu_drake.errors import check_choice, check_number
 from hotu_drake.io import check_output_path
-from hotu_drake.learning.checkpoint import CheckpointError
 from hotu_drake.learning.skill_config import TWO_LEVEL, finetune_preset, load_skill_config, skill_config_from_dict
 from hotu_drake.train import check_run_arguments, resumed_run
 
@@ -103,7 +103,7 @@ def _resumed(args):
 
 
 def _new_run(args) -> tuple[dict, object]:
-    from hotu_drake.train_skill import load_controller, read_skill_run
+    from hotu_drake.train_skill import load_controller
 
     out = check_run_arguments(args)
     if (out / "checkpoint.pt").exists() or (out / "run.json").exists():
@@ -114,12 +114,7 @@ def _new_run(args) -> tuple[dict, object]:
     for name in ("references", "eval_references"):
         check_number(getattr(args, name), f"--{name.replace('_', '-')}", "finetune", low=1, high=1000, integer=True)
     skill = Path(args.skill)
-    try:
-        skill_settings, _, _ = read_skill_run(skill)
-    except (OSError, ValueError, KeyError, CheckpointError) as error:
-        raise UserError(f"--skill {skill}: not a skill run folder ({str(error).splitlines()[0][:120]})") from None
-    if skill_settings.get("command") != "skill" or skill_settings.get("algo") not in TWO_LEVEL:
-        raise UserError(f"--skill {skill}: not a two-level train skill run (ours or ase)")
+    skill_settings = _skill_settings(skill)
     controller = load_controller(args.llc)
     if controller.config.algo != "dail":
         raise UserError(f"--llc {args.llc}: a {controller.config.algo} controller; the fine-tune drives a dail one")
@@ -145,6 +140,23 @@ def _new_run(args) -> tuple[dict, object]:
         "workers": args.workers or 2,
     }
     return settings, config
+
+
+def _skill_settings(skill: Path) -> dict:
+    """The UDH skill run's settings, checked: a two-level run with what recording needs."""
+    from hotu_drake.transfer import skill_controller
+
+    try:
+        settings = json.loads((skill / "run.json").read_text())
+    except (OSError, ValueError) as error:
+        raise UserError(f"--skill {skill}: not a skill run folder ({str(error).splitlines()[0][:120]})") from None
+    if not isinstance(settings, dict) or settings.get("command") != "skill" or settings.get("algo") not in TWO_LEVEL:
+        raise UserError(f"--skill {skill}: not a two-level train skill run (ours or ase)")
+    for name in ("policy.pt", "config.yaml"):
+        if not (skill / name).is_file():
+            raise UserError(f"--skill {skill}: no {name} (the run's high level and its task's curriculum)")
+    skill_controller(skill)  # its behavior controller is there to record with
+    return settings
 
 
 def _record_references(settings: dict, folder: Path) -> dict:
