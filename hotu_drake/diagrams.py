@@ -8,7 +8,8 @@
     perturbation cubes       systems.perturbation.add_perturbation_cubes
     interaction graph        systems.interaction_graph.AddInteractionGraph
     PD targets (driver)      standing pose | systems.reference | systems.policy
-                             | systems.skill (over systems.policy)
+                             | systems.skill (over systems.policy; a transfer layer
+                               with systems.transfer_reference)
                              | exported `action` input | systems.base_command
     PD                       systems.pd.AddPdControl (built-in or SaturatedPdController)
     observation              systems.observation.AddObservation
@@ -42,7 +43,7 @@ from hotu_drake import embodiment as embodiments
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.actions import standing_action
 from hotu_drake.errors import InputError
-from hotu_drake.motion.clip import MotionClip
+from hotu_drake.motion.clip import ClipFormatError, MotionClip
 from hotu_drake.motion.playback import ClipPlayback
 from hotu_drake.objects import add_scene_objects, object_body, place_objects
 from hotu_drake.plant import (
@@ -74,6 +75,7 @@ from hotu_drake.systems.perturbation import AddPerturbation, add_perturbation_cu
 from hotu_drake.systems.policy import AddPolicy, load_policy
 from hotu_drake.systems.reference import AddReferenceMotion, ReferenceMotionSource
 from hotu_drake.systems.skill import AddSkillPolicy, load_skill_policy
+from hotu_drake.systems.transfer_reference import AddTransferReference, TransferReference
 
 __all__ = ["Simulation", "build_simulation", "build_standing_simulation"]
 
@@ -127,6 +129,7 @@ class DiagramParts:
     scenario: Scenario
     clip: MotionClip | None
     graph: InteractionGraphSystem | None = None  # with a task object
+    objects: dict = field(default_factory=dict)  # object name -> model instance
 
     @property
     def explicit(self) -> bool:
@@ -167,7 +170,7 @@ def build_simulation(
     if actuated_joint_order(plant, model) != emb.joint_names:
         raise RuntimeError(f"{emb.name}: actuator order differs from the spec's joint order")
 
-    parts = DiagramParts(builder, plant, scene_graph, model, emb, scenario, clip)
+    parts = DiagramParts(builder, plant, scene_graph, model, emb, scenario, clip, objects=objects)
     task = [o for o in scenario.objects if o.is_task_object]
     if task and {"left_hand", "right_hand", "pelvis"} <= emb.key_bodies.keys():
         bodies = {o.instance_name: object_body(plant, objects, o) for o in task}
@@ -296,7 +299,9 @@ def _(driver: SkillCheckpoint, parts: DiagramParts) -> OutputPort:
         raise InputError(
             "!SkillCheckpoint needs a task object (a free box or drill)", scenario.source or None, "objects"
         )
-    skill, meta = load_skill_policy(scenario.resolve(driver.skill), emb)
+    reference = _transfer_reference(driver, parts)
+    size = reference.size if reference is not None else 0
+    skill, meta = load_skill_policy(scenario.resolve(driver.skill), emb, reference_size=size)
     llc_path = scenario.resolve(driver.llc)
     network, _ = load_policy(llc_path, emb)
     groups = dict.fromkeys(meta["llc_groups"], int(meta["latent_size"]))
@@ -309,11 +314,35 @@ def _(driver: SkillCheckpoint, parts: DiagramParts) -> OutputPort:
     observation = parts.observation().GetOutputPort("observation")
     rate = scenario.control_rate
     graph = parts.graph
-    latents = AddSkillPolicy(
-        builder, skill, meta, observation, graph.GetOutputPort("goal"), graph.GetOutputPort("interaction"), rate
-    )
+    reference_port = None
+    if reference is not None:
+        task = next(o for o in scenario.objects if o.is_task_object)
+        body = object_body(parts.plant, parts.objects, task)
+        tracker = AddTransferReference(
+            builder, parts.plant, parts.model, parts.observation(), reference, emb.spec.root.name, body
+        )
+        reference_port = tracker.GetOutputPort("reference")
+        builder.ExportOutput(reference_port, "transfer_reference")
+    goal, interaction = graph.GetOutputPort("goal"), graph.GetOutputPort("interaction")
+    latents = AddSkillPolicy(builder, skill, meta, observation, goal, interaction, rate, reference_port)
     builder.ExportOutput(latents.GetOutputPort("latents"), "latents")
     return _policy_targets(parts, network, observation, latents)
+
+
+def _transfer_reference(driver: SkillCheckpoint, parts: DiagramParts) -> TransferReference | None:
+    """The reference clip a fine-tuned transfer layer tracks, checked against the robot and the task."""
+    if not driver.reference:
+        return None
+    scenario = parts.scenario
+    path = scenario.resolve(driver.reference)
+    try:
+        clip = MotionClip.load(path)
+    except (ClipFormatError, OSError) as error:
+        raise InputError(f"{path}: {error}", scenario.source or None, "driver.reference") from None
+    if list(clip.joint_names) != list(parts.embodiment.joint_names):
+        raise InputError(f"{path}: a clip of {clip.embodiment}, not of this robot", scenario.source or None)
+    task = next(o for o in scenario.objects if o.is_task_object)
+    return TransferReference(clip, task.kind, 1.0 / scenario.control_rate)
 
 
 @add_driver.register

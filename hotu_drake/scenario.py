@@ -93,11 +93,14 @@ class SkillCheckpoint:
     (`skill`, the run's `policy.pt`) chooses the latents of the frozen
     behavior controller (`llc`, that run's `policy.pt`), which sets the PD
     targets at the scenario's `control_rate`. Needs a task object (a box or
-    a drill) in `objects`, with its `target`. Paths relative to the scenario
-    file."""
+    a drill) in `objects`, with its `target`. A layer fine-tuned by
+    `train finetune` also takes its `reference` (a `.npz` clip of the robot,
+    one of the run's `references/`), which it tracks from t = 0. Paths
+    relative to the scenario file."""
 
     skill: str = ""
     llc: str = ""
+    reference: str = ""
 
 
 @dataclass

@@ -31,6 +31,7 @@ import sys
 from datetime import date
 from pathlib import Path
 
+import numpy as np
 import torch
 import yaml
 
@@ -308,6 +309,8 @@ def train_skill_run(settings: dict, config: SkillConfig, args) -> int:
 
 def _save_skill(agent, settings: dict, out: Path, config: SkillConfig) -> None:
     """The training checkpoint and the high level (or one-level policy) alone next to it."""
+    from hotu_drake.systems.interaction_graph import GOAL_SIZE
+
     if settings["algo"] not in TWO_LEVEL:
         _save(agent, settings, out, {"kind": "task_policy", "task": settings["task"], "config": config.to_dict()})
         return
@@ -320,6 +323,8 @@ def _save_skill(agent, settings: dict, out: Path, config: SkillConfig) -> None:
         "latent_size": agent.latent_size,
         "hold_steps": config.high_level.hold_steps,
         "interaction_size": int(agent._interaction.shape[1]),
+        # A transfer layer's reference features (0 for a skill): what follows the goal in its observation.
+        "reference_size": int(agent.envs.single_observation_space.shape[0]) - agent.llc.observation_size - GOAL_SIZE,
         "motions": settings["motions"],
         "seed": settings["seed"],
         "samples": agent.counters["samples"],
@@ -375,7 +380,7 @@ def evaluate_skill_run(run: Path, episodes: int, seed: int, workers: int) -> dic
         "machine": {"cpu_cores": _cores(), "python": platform.python_version(), "date": date.today().isoformat()},
     }
     write_text_atomic(run / "report.json", json.dumps(report, indent=2) + "\n")
-    if "goal" in detail[best] and not settings.get("references"):
+    if "goal" in detail[best]:
         write_text_atomic(run / "best_episode.yaml", episode_scenario(run, settings, config, detail[best]["goal"]))
     return report
 
@@ -397,6 +402,8 @@ def episode_scenario(run: Path, settings: dict, config: SkillConfig, goal: dict)
         objects.append(SceneObject("drill", "drill", start, float(goal["start_yaw"]), target=target))
     if settings["algo"] in TWO_LEVEL:
         driver = SkillCheckpoint(str((run / "policy.pt").resolve()), str(Path(settings["llc"]) / "policy.pt"))
+        if settings.get("references"):  # a transfer layer: the held-out reference of this episode
+            driver.reference = _episode_reference(settings["eval_references"], target)
     else:
         driver = PolicyCheckpoint(str((run / "policy.pt").resolve()), latents="zero")
     scenario = Scenario(
@@ -408,6 +415,18 @@ def episode_scenario(run: Path, settings: dict, config: SkillConfig, goal: dict)
         duration=10.0,
     )
     return f"# The best evaluation episode of {run.name}: its start and target.\n" + scenario.to_yaml()
+
+
+def _episode_reference(references: list[str], target: list[float]) -> str:
+    """The reference clip whose target track is `target` (its episode's)."""
+    from hotu_drake.motion.clip import MotionClip
+    from hotu_drake.systems.transfer_reference import TARGET_TRACK, track_index
+
+    for path in references:
+        clip = MotionClip.load(path)
+        if np.allclose(clip.object_poses[0, track_index(clip, TARGET_TRACK), :3], target, atol=1e-6):
+            return path
+    raise ValueError(f"no reference of {references} has the target {target}")
 
 
 def summary(report: dict) -> dict:

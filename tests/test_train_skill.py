@@ -206,3 +206,25 @@ def test_a_finetune_run_resumes_and_refuses_a_skill_that_is_not_two_level(transf
     with pytest.raises(UserError, match="not a two-level train skill run"):
         main(["finetune", "--skill", str(runs["amp"]), "--llc", settings["llc"], "--steps", "8", "--out", str(out)])
     assert not out.exists()
+
+
+def test_a_fine_tuned_layer_deploys_in_its_diagram_with_the_environments_reference(transfer):
+    import gymnasium as gym
+
+    from hotu_drake.diagrams import build_simulation
+    from hotu_drake.systems.interaction_graph import GOAL_SIZE
+
+    scenario = load_scenario(str(transfer / "best_episode.yaml"))
+    assert scenario.driver.reference.endswith("eval_1000.npz") and scenario.embodiment == "h1"
+    sim = build_simulation(scenario)
+    env = gym.make("hotu_drake/BoxCarryTransfer-v0", robot="h1", hands="none", references=[scenario.driver.reference])
+    inner = env.unwrapped
+    inner.reset(seed=0)
+    # From the diagram's start state, the environment's reference features are the diagram's.
+    state = sim.plant.GetPositionsAndVelocities(sim.plant_context())
+    inner.sim.plant.SetPositionsAndVelocities(inner._plant_context, state)
+    np.testing.assert_allclose(sim.output("transfer_reference"), inner._extra_observation()[GOAL_SIZE:], atol=1e-9)
+    env.close()
+    sim.simulator.AdvanceTo(0.5)
+    latents = sim.output("latents").reshape(4, -1)
+    np.testing.assert_allclose(np.linalg.norm(latents, axis=1), 1.0, atol=1e-6)

@@ -26,9 +26,10 @@ from hotu_drake.systems.observation import observation_size
 from hotu_drake.systems.policy import CONTROL_RATE, check_embodiment
 
 
-def load_skill_policy(path: str | Path, embodiment: Embodiment) -> tuple[PolicyNetwork, dict]:
+def load_skill_policy(path: str | Path, embodiment: Embodiment, reference_size: int = 0) -> tuple[PolicyNetwork, dict]:
     """The high-level network of a skill checkpoint and its `meta`, checked
-    against `embodiment`; `UserError` naming the file otherwise."""
+    against `embodiment` (and, for a fine-tuned transfer layer, the size of
+    its reference features); `UserError` naming the file otherwise."""
     try:
         network, data = load_checkpoint(path)
     except CheckpointError as error:
@@ -37,7 +38,11 @@ def load_skill_policy(path: str | Path, embodiment: Embodiment) -> tuple[PolicyN
     if meta.get("kind") != "skill":
         raise UserError(f"{path}: not a skill checkpoint (train one with `python -m hotu_drake.train skill`)")
     check_embodiment(path, data, embodiment, "skill")
-    expected = observation_size(embodiment) + GOAL_SIZE + int(meta["interaction_size"])
+    trained = int(meta.get("reference_size", 0))
+    if trained != reference_size:
+        what = "a transfer layer: give its reference clip" if trained else "not a transfer layer: it takes no reference"
+        raise UserError(f"{path}: {what} (reference features {trained}, given {reference_size})")
+    expected = observation_size(embodiment) + GOAL_SIZE + reference_size + int(meta["interaction_size"])
     if network.config.observation_size != expected:
         size = network.config.observation_size
         raise UserError(f"{path}: the skill observes {size} numbers, {embodiment.name}'s task gives {expected}")
@@ -54,6 +59,7 @@ class SkillPolicySystem(LeafSystem):
         - observation
         - goal
         - interaction
+        - reference (a fine-tuned transfer layer only)
         output_ports:
         - latents
         - latent_<group> (one per part group of the controller)
@@ -74,6 +80,7 @@ class SkillPolicySystem(LeafSystem):
         observation_size: int,
         interaction_size: int,
         control_rate: float = CONTROL_RATE,
+        reference_size: int = 0,
     ):
         super().__init__()
         if network.config.action_size != len(groups) * latent_size:
@@ -85,6 +92,7 @@ class SkillPolicySystem(LeafSystem):
         self._observation = self.DeclareVectorInputPort("observation", observation_size)
         self._goal = self.DeclareVectorInputPort("goal", GOAL_SIZE)
         self._interaction = self.DeclareVectorInputPort("interaction", interaction_size)
+        self._reference = self.DeclareVectorInputPort("reference", reference_size) if reference_size else None
         total = len(groups) * latent_size
         self._state = self.DeclareDiscreteState(np.zeros(total + 1))  # latents, periods until the next choice
         self._all = self.DeclareVectorOutputPort(
@@ -102,10 +110,10 @@ class SkillPolicySystem(LeafSystem):
 
     def _choose(self, context: Context) -> np.ndarray:
         """The network's latents for the current inputs."""
-        inputs = high_level_input(
-            np.concatenate([self._observation.Eval(context), self._goal.Eval(context)])[None],
-            self._interaction.Eval(context)[None],
-        )
+        observed = [self._observation.Eval(context), self._goal.Eval(context)]
+        if self._reference is not None:  # a transfer layer sees the reference after the goal, as in training
+            observed.append(self._reference.Eval(context))
+        inputs = high_level_input(np.concatenate(observed)[None], self._interaction.Eval(context)[None])
         with torch.no_grad():
             raw = self._network.mean(torch.as_tensor(inputs)).numpy()
         latents = to_latents(raw, self._groups, self._size)
@@ -131,11 +139,12 @@ def AddSkillPolicy(
     goal: OutputPort,
     interaction: OutputPort,
     control_rate: float = CONTROL_RATE,
+    reference: OutputPort | None = None,
 ) -> SkillPolicySystem:
     """Add a `SkillPolicySystem` named `skill` for a skill checkpoint's
     network and `meta`, fed by the robot's observation, the task's goal and
-    s_I; `AddPolicy(..., latents=skill)` connects its `latent_<group>`
-    outputs to the controller's inputs."""
+    s_I (and a transfer layer's `reference` features); `AddPolicy(...,
+    latents=skill)` connects its `latent_<group>` outputs to the controller's inputs."""
     system = SkillPolicySystem(
         network,
         list(meta["llc_groups"]),
@@ -144,9 +153,12 @@ def AddSkillPolicy(
         observation.size(),
         interaction.size(),
         control_rate,
+        reference.size() if reference is not None else 0,
     )
     skill = builder.AddNamedSystem("skill", system)
     builder.Connect(observation, skill.GetInputPort("observation"))
     builder.Connect(goal, skill.GetInputPort("goal"))
     builder.Connect(interaction, skill.GetInputPort("interaction"))
+    if reference is not None:
+        builder.Connect(reference, skill.GetInputPort("reference"))
     return skill
