@@ -937,6 +937,69 @@ def _(tmp):
     return "hotu_drake.train", [*SKILL, "--algo", "amp", "--config", str(config), "--out", str(tmp / "run")]
 
 
+FINETUNE = ["finetune", "--steps", "16", "--workers", "1"]
+
+
+def _skill_run(tmp: Path, algo: str = "ours") -> Path:
+    """A skill run folder with what `finetune` checks before recording (the files, not trained networks)."""
+    skill = tmp / "udh_box"
+    skill.mkdir()
+    controller = tmp / "udh_dail"
+    controller.mkdir()
+    (controller / "policy.pt").write_bytes(b"")
+    settings = {"command": "skill", "task": "box_carry", "robot": "udh", "algo": algo, "llc": str(controller)}
+    (skill / "run.json").write_text(json.dumps(settings))
+    for name in ("policy.pt", "config.yaml"):
+        (skill / name).write_bytes(b"")
+    return skill
+
+
+@case("finetune_skill_missing", "cli", "needs --skill")
+def _(tmp):
+    return "hotu_drake.train", [*FINETUNE, "--llc", str(_controller_run(tmp, "h1")), "--out", str(tmp / "run")]
+
+
+@case("finetune_skill_not_a_run", "cli", "not a skill run folder")
+def _(tmp):
+    llc = str(_controller_run(tmp, "h1"))
+    return "hotu_drake.train", [*FINETUNE, "--skill", str(tmp), "--llc", llc, "--out", str(tmp / "run")]
+
+
+@case("finetune_skill_one_level", "cli", "not a two-level")
+def _(tmp):
+    skill, llc = str(_skill_run(tmp, "amp")), str(_controller_run(tmp, "h1"))
+    return "hotu_drake.train", [*FINETUNE, "--skill", skill, "--llc", llc, "--out", str(tmp / "run")]
+
+
+@case("finetune_llc_of_another_method", "cli", "drives a dail one")
+def _(tmp):
+    skill, llc = str(_skill_run(tmp)), str(_controller_run(tmp, "h1", "ase"))
+    return "hotu_drake.train", [*FINETUNE, "--skill", skill, "--llc", llc, "--out", str(tmp / "run")]
+
+
+@case("finetune_references_zero", "cli", "--references")
+def _(tmp):
+    skill, llc = str(_skill_run(tmp)), str(_controller_run(tmp, "h1"))
+    argv = [*FINETUNE, "--skill", skill, "--llc", llc, "--references", "0", "--out", str(tmp / "run")]
+    return "hotu_drake.train", argv
+
+
+@case("evaluate_not_a_run", "cli", "not a run folder")
+def _(tmp):
+    return "hotu_drake.evaluate", ["primitives", "--runs", str(tmp / "none"), "--out", str(tmp / "out")]
+
+
+@case("evaluate_momenta_not_numbers", "cli", "--momenta")
+def _(tmp):
+    argv = ["perturbation", "--runs", str(tmp), "--momenta", "2,heavy", "--out", str(tmp / "out")]
+    return "hotu_drake.evaluate", argv
+
+
+@case("evaluate_ablation_not_png", "cli", ".png")
+def _(tmp):
+    return "hotu_drake.evaluate", ["ablation", "--runs", str(tmp), "--out", str(tmp / "ablation.pdf")]
+
+
 def corpus_summary() -> dict[str, int]:
     """How many cases of each family (the README records it)."""
     families: dict[str, int] = {}
