@@ -62,19 +62,7 @@ def main(argv: list[str] | None = None) -> int:
     pre.add_argument("--hands", help="full or none (default none)")
     pre.add_argument("--motions", help="comma-separated library motions and/or .npz clips of the robot")
     pre.add_argument("--algo", help=f"{' | '.join(ALGORITHMS)} (default dail)")
-    pre.add_argument("--steps", type=int, required=True, help="samples (environment steps) to train for in total")
-    pre.add_argument(
-        "--workers", type=int, help="environment worker processes (default 2; on --resume, the run's own number)"
-    )
-    pre.add_argument(
-        "--ray", metavar="ADDRESS", help="run the workers as Ray actors on this cluster ('auto', host:port)"
-    )
-    pre.add_argument("--out", required=True, help="the run folder (runs/NAME)")
-    pre.add_argument("--config", help="a YAML file overriding the algorithm's preset (learning.config)")
-    pre.add_argument("--seed", type=int, default=0)
-    pre.add_argument("--resume", action="store_true", help="continue the run in --out from its last checkpoint")
-    pre.add_argument("--checkpoint-every", type=int, help="iterations between checkpoints (default: ~3 minutes' worth)")
-    pre.add_argument("--eval-episodes", type=int, default=20, help="evaluation episodes at the end (0: none)")
+    add_run_arguments(pre, "the algorithm's preset (learning.config)", eval_episodes=20)
     ev = sub.add_parser("evaluate", help="evaluate a run's last checkpoint; writes its report.json")
     ev.add_argument("run", help="the run folder")
     ev.add_argument("--episodes", type=int, help="episodes (default 20; 100 for a skill run)")
@@ -110,6 +98,30 @@ def main(argv: list[str] | None = None) -> int:
 
 
 # -- pretrain ------------------------------------------------------------------------
+
+
+def add_run_arguments(parser, preset_help: str, eval_episodes: int) -> None:
+    """The options every training command takes (`pretrain`, `skill`, `finetune`)."""
+    parser.add_argument("--steps", type=int, required=True, help="samples (control steps) to train for in total")
+    parser.add_argument(
+        "--workers", type=int, help="environment worker processes (default 2; on --resume, the run's own number)"
+    )
+    parser.add_argument(
+        "--ray", metavar="ADDRESS", help="run the workers as Ray actors on this cluster ('auto', host:port)"
+    )
+    parser.add_argument("--out", required=True, help="the run folder (runs/NAME)")
+    parser.add_argument("--config", help=f"a YAML file overriding {preset_help}")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--resume", action="store_true", help="continue the run in --out from its last checkpoint")
+    parser.add_argument(
+        "--checkpoint-every", type=int, help="iterations between checkpoints (default: ~3 minutes' worth)"
+    )
+    parser.add_argument(
+        "--eval-episodes",
+        type=int,
+        default=eval_episodes,
+        help=f"evaluation episodes at the end (default {eval_episodes}; 0: none)",
+    )
 
 
 def _settings(args) -> tuple[dict, TrainConfig]:

@@ -33,11 +33,11 @@ import shutil
 from pathlib import Path
 
 from hotu_drake.cli import UserError
-from hotu_drake.embodiment import EMBODIMENT_NAMES, HANDS_VARIANTS
-from hotu_drake.errors import check_choice, check_number
+from hotu_drake.embodiment import EMBODIMENT_NAMES
+from hotu_drake.errors import check_number
 from hotu_drake.io import check_output_path
-from hotu_drake.learning.skill_config import TWO_LEVEL, finetune_preset, load_skill_config, skill_config_from_dict
-from hotu_drake.train import check_run_arguments, resumed_run
+from hotu_drake.learning.skill_config import TWO_LEVEL, finetune_preset, load_skill_config
+from hotu_drake.train import add_run_arguments, check_run_arguments
 
 EVALUATION_SEED = 1000  # the held-out references' first seed
 
@@ -50,15 +50,7 @@ def add_parser(sub) -> None:
     fine.add_argument("--llc", help="the robot's behavior controller (a DAIL train pretrain run folder)")
     fine.add_argument("--references", type=int, default=8, help="UDH episodes to record and track (default 8)")
     fine.add_argument("--eval-references", type=int, default=8, help="held-out episodes for the evaluation")
-    fine.add_argument("--steps", type=int, required=True, help="samples (control steps) to train for in total")
-    fine.add_argument("--workers", type=int, help="environment worker processes (default 2)")
-    fine.add_argument("--ray", metavar="ADDRESS", help="run the workers as Ray actors on this cluster")
-    fine.add_argument("--out", required=True, help="the run folder (runs/NAME)")
-    fine.add_argument("--config", help="a YAML file overriding the fine-tune preset (learning.skill_config)")
-    fine.add_argument("--seed", type=int, default=0)
-    fine.add_argument("--resume", action="store_true", help="continue the run in --out from its last checkpoint")
-    fine.add_argument("--checkpoint-every", type=int, help="iterations between checkpoints (default: ~3 minutes)")
-    fine.add_argument("--eval-episodes", type=int, default=16, help="evaluation episodes (0: none)")
+    add_run_arguments(fine, "the fine-tune preset (learning.skill_config.finetune_preset)", eval_episodes=16)
 
 
 def finetune_command(args) -> int:
@@ -87,23 +79,14 @@ def finetune_command(args) -> int:
 
 
 def _resumed(args):
-    out = check_run_arguments(args)
-    settings, checkpoint = resumed_run(out)
-    if settings.get("command") != "finetune":
-        raise UserError(f"{out}: not a fine-tune run (resume it with train {settings.get('command', 'pretrain')})")
-    for name in ("robot", "hands"):
-        given = getattr(args, name)
-        if given is not None and given != settings[name]:
-            raise UserError(f"--{name} {given!r}: the run in {out} has {settings[name]!r}")
-    if args.config:
-        raise UserError(f"--config: the run in {out} keeps its configuration (config.yaml)")
-    config = skill_config_from_dict(checkpoint["meta"]["config"], where=str(out / "checkpoint.pt"))
-    settings["workers"] = args.workers or settings.get("workers", 2)
-    return settings, config
+    from hotu_drake.train_skill import resumed_skill_run
+
+    check_run_arguments(args)
+    return resumed_skill_run(args, "finetune", ("robot", "hands"))
 
 
 def _new_run(args) -> tuple[dict, object]:
-    from hotu_drake.train_skill import load_controller
+    from hotu_drake.train_skill import controller_robot
 
     out = check_run_arguments(args)
     if (out / "checkpoint.pt").exists() or (out / "run.json").exists():
@@ -115,16 +98,7 @@ def _new_run(args) -> tuple[dict, object]:
         check_number(getattr(args, name), f"--{name.replace('_', '-')}", "finetune", low=1, high=1000, integer=True)
     skill = Path(args.skill)
     skill_settings = _skill_settings(skill)
-    controller = load_controller(args.llc)
-    if controller.config.algo != "dail":
-        raise UserError(f"--llc {args.llc}: a {controller.config.algo} controller; the fine-tune drives a dail one")
-    robot = check_choice(args.robot or controller.embodiment, "--robot", EMBODIMENT_NAMES)
-    hands = check_choice(args.hands or controller.hands, "--hands", HANDS_VARIANTS)
-    if (robot, hands) != (controller.embodiment, controller.hands):
-        raise UserError(
-            f"--llc {args.llc}: a controller of {controller.embodiment} hands={controller.hands}, "
-            f"not of {robot} hands={hands}"
-        )
+    robot, hands = controller_robot(args, "dail", "the fine-tune")
     config = load_skill_config(args.config, "ours", base=finetune_preset()) if args.config else finetune_preset()
     settings = {
         "command": "finetune",

@@ -50,7 +50,16 @@ from hotu_drake.learning.skill_config import (
     skill_config_from_dict,
     skill_preset,
 )
-from hotu_drake.train import CHECKPOINT_SECONDS, _cores, _motions, _save, _train, check_run_arguments, resumed_run
+from hotu_drake.train import (
+    CHECKPOINT_SECONDS,
+    _cores,
+    _motions,
+    _save,
+    _train,
+    add_run_arguments,
+    check_run_arguments,
+    resumed_run,
+)
 
 # The motions each task environment learns from by default: its human-object demonstration and a walk.
 TASK_MOTIONS = {"box_carry": ["walk", "box_carry"], "drill_grasp": ["walk", "drill_grasp"]}
@@ -69,15 +78,7 @@ def add_parser(sub) -> None:
     skill.add_argument("--llc", help="the behavior run a two-level method drives (a run folder of train pretrain)")
     skill.add_argument("--algo", help=f"{' | '.join(SKILL_ALGORITHMS)} (default ours)")
     skill.add_argument("--motions", help="the demonstrations (default: the task's, e.g. walk,box_carry)")
-    skill.add_argument("--steps", type=int, required=True, help="samples (control steps) to train for in total")
-    skill.add_argument("--workers", type=int, help="environment worker processes (default 2)")
-    skill.add_argument("--ray", metavar="ADDRESS", help="run the workers as Ray actors on this cluster")
-    skill.add_argument("--out", required=True, help="the run folder (runs/NAME)")
-    skill.add_argument("--config", help="a YAML file overriding the method's preset (learning.skill_config)")
-    skill.add_argument("--seed", type=int, default=0)
-    skill.add_argument("--resume", action="store_true", help="continue the run in --out from its last checkpoint")
-    skill.add_argument("--checkpoint-every", type=int, help="iterations between checkpoints (default: ~3 minutes)")
-    skill.add_argument("--eval-episodes", type=int, default=EVALUATION_EPISODES, help="evaluation episodes (0: none)")
+    add_run_arguments(skill, "the method's preset (learning.skill_config)", EVALUATION_EPISODES)
 
 
 def is_skill_run(run: Path) -> bool:
@@ -107,23 +108,47 @@ def load_controller(path: str):
         raise UserError(f"--llc: {error}") from None
 
 
+def controller_robot(args, wanted: str, who: str) -> tuple[str, str]:
+    """The robot and hands of `--llc` (a `wanted` controller, which `who`
+    drives), as `--robot` and `--hands` may also say; `UserError` otherwise."""
+    controller = load_controller(args.llc)
+    if controller.config.algo != wanted:
+        raise UserError(f"--llc {args.llc}: a {controller.config.algo} controller; {who} drives a {wanted} one")
+    robot = check_choice(args.robot or controller.embodiment, "--robot", EMBODIMENT_NAMES)
+    hands = check_choice(args.hands or controller.hands, "--hands", HANDS_VARIANTS)
+    if (robot, hands) != (controller.embodiment, controller.hands):
+        raise UserError(
+            f"--llc {args.llc}: a controller of {controller.embodiment} hands={controller.hands}, "
+            f"not of {robot} hands={hands}"
+        )
+    return robot, hands
+
+
+def resumed_skill_run(args, command: str, names: tuple[str, ...]) -> tuple[dict, SkillConfig]:
+    """The settings and configuration of the `command` run to resume in
+    `args.out`; `UserError` if the arguments in `names` (or `--llc`,
+    `--config`) ask for something else than the run has."""
+    out = Path(args.out)
+    settings, checkpoint = resumed_run(out)
+    if settings.get("command") != command:
+        raise UserError(f"{out}: not a {command} run (resume it with train {settings.get('command', 'pretrain')})")
+    for name in names:
+        given = getattr(args, name)
+        if given is not None and given != settings[name]:
+            raise UserError(f"--{name} {given!r}: the run in {out} has {settings[name]!r}")
+    if args.llc is not None and str(Path(args.llc).resolve()) != settings["llc"]:
+        raise UserError(f"--llc: the run in {out} drives {settings['llc']}")
+    if args.config:
+        raise UserError(f"--config: the run in {out} keeps its configuration (config.yaml)")
+    config = skill_config_from_dict(checkpoint["meta"]["config"], where=str(out / "checkpoint.pt"))
+    settings["workers"] = args.workers or settings.get("workers", 2)
+    return settings, config
+
+
 def _settings(args) -> tuple[dict, SkillConfig]:
     out = check_run_arguments(args)
     if args.resume:
-        settings, checkpoint = resumed_run(out)
-        if settings.get("command") != "skill":
-            raise UserError(f"{out}: a behavior run (resume it with train pretrain)")
-        for name in ("task", "robot", "hands", "algo"):
-            given = getattr(args, name)
-            if given is not None and given != settings[name]:
-                raise UserError(f"--{name} {given!r}: the run in {out} has {settings[name]!r}")
-        if args.llc is not None and str(Path(args.llc).resolve()) != settings["llc"]:
-            raise UserError(f"--llc: the run in {out} drives {settings['llc']}")
-        if args.config:
-            raise UserError(f"--config: the run in {out} keeps its configuration (config.yaml)")
-        config = skill_config_from_dict(checkpoint["meta"]["config"], where=str(out / "checkpoint.pt"))
-        settings["workers"] = args.workers or settings.get("workers", 2)
-        return settings, config
+        return resumed_skill_run(args, "skill", ("task", "robot", "hands", "algo"))
     if (out / "checkpoint.pt").exists() or (out / "run.json").exists():
         raise UserError(f"{out}: a run is already here (add --resume to continue it, or choose another --out)")
     check_output_path(out, folder=True)
@@ -136,19 +161,7 @@ def _settings(args) -> tuple[dict, SkillConfig]:
     if algo in TWO_LEVEL:
         if not args.llc:
             raise UserError(f"--algo {algo} drives a behavior controller: give --llc (a train pretrain run folder)")
-        controller = load_controller(args.llc)
-        wanted = CONTROLLER_ALGO[algo]
-        if controller.config.algo != wanted:
-            raise UserError(
-                f"--llc {args.llc}: a {controller.config.algo} controller; --algo {algo} drives a {wanted} one"
-            )
-        robot = check_choice(args.robot or controller.embodiment, "--robot", EMBODIMENT_NAMES)
-        hands = check_choice(args.hands or controller.hands, "--hands", HANDS_VARIANTS)
-        if (robot, hands) != (controller.embodiment, controller.hands):
-            raise UserError(
-                f"--llc {args.llc}: a controller of {controller.embodiment} hands={controller.hands}, "
-                f"not of {robot} hands={hands}"
-            )
+        robot, hands = controller_robot(args, CONTROLLER_ALGO[algo], f"--algo {algo}")
         llc = str(Path(args.llc).resolve())
     else:
         if args.llc:
