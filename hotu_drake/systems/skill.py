@@ -59,7 +59,7 @@ class SkillPolicySystem(LeafSystem):
         - observation
         - goal
         - interaction
-        - reference (a fine-tuned transfer layer only)
+        - reference (optional: a fine-tuned transfer layer's)
         output_ports:
         - latents
         - latent_<group> (one per part group of the controller)

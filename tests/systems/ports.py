@@ -19,16 +19,22 @@ def docstring_ports(system_type: type) -> tuple[list[str], list[str]]:
         text = line.strip()
         if text in ("input_ports:", "output_ports:"):
             section = text[:-1]
-        elif text.startswith("- ") and section:
-            ports[section].append(text[2:].split()[0])
+        elif text.startswith("- ") and section:  # "(optional ...)" after a name: a port some systems have
+            ports[section].append(text[2:].split()[0] + ("?" if "(optional" in text else ""))
         elif text and not text.startswith("name:") and section:
             break
     return ports["input_ports"], ports["output_ports"]
 
 
 def _matches(documented: list[str], names: list[str]) -> bool:
-    """`latent_<part>` in a docstring stands for one or more ports named so."""
-    pattern = "".join(f"(?:{re.escape(d.split('<')[0])}\\w+,)+" if "<" in d else f"{re.escape(d)}," for d in documented)
+    """`latent_<part>` in a docstring stands for one or more ports named so, `name?` for an optional one."""
+
+    def one(d: str) -> str:
+        if "<" in d:
+            return f"(?:{re.escape(d.split('<')[0])}\\w+,)+"
+        return f"(?:{re.escape(d[:-1])},)?" if d.endswith("?") else f"{re.escape(d)},"
+
+    pattern = "".join(one(d) for d in documented)
     return re.fullmatch(pattern, "".join(f"{n}," for n in names)) is not None
 
 
