@@ -108,6 +108,20 @@ def test_object_tracks_are_scaled_to_each_robot():
             assert np.linalg.norm(source[lifted, :3] - between) > 0.6
 
 
+def test_the_replay_draws_each_lanes_own_objects():
+    from pydrake.geometry import StartMeshcat
+
+    from hotu_drake.retarget.replay import render_replay
+
+    human = generate("box_carry")
+    udh = to_udh(human, "none").clip
+    bruce = to_robot(udh, "bruce", "none").clip
+    meshcat = render_replay([udh, bruce], source=human, meshcat=StartMeshcat())
+    for lane in range(3):  # the human's landmarks, the UDH, Bruce: each with its box
+        assert meshcat.HasPath(f"/objects/box_{lane}/body")
+    assert not meshcat.HasPath("/objects/box_3")
+
+
 def test_curi_base_follows_the_pelvis(udh_walk):
     curi = to_robot(udh_walk, "curi", "none").clip
     path = np.stack([curi.joint("base_x"), curi.joint("base_y")], axis=1)

@@ -18,7 +18,7 @@ from hotu_drake import embodiment
 from hotu_drake.io import write_text_atomic
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import landmarks_of
-from hotu_drake.objects import OBJECT_MODELS
+from hotu_drake.objects import OBJECT_MODELS, object_kind
 from hotu_drake.plant import actuated_joint_order
 
 LANE = 1.2  # metres between lanes
@@ -29,11 +29,12 @@ OBJECT_COLOR = Rgba(0.72, 0.52, 0.30, 1.0)
 def _add_object(meshcat: Meshcat, path: str, name: str, pose: np.ndarray) -> None:
     """An object's shapes (`objects.OBJECT_MODELS`) in its frame; the library's
     table stands at its pose (the top's centre) on a leg down to the floor."""
-    model = OBJECT_MODELS.get(name)
+    kind = object_kind(name)
+    model = OBJECT_MODELS.get(kind) if kind is not None else None
     if model is None:
         meshcat.SetObject(f"{path}/body", Sphere(0.05), OBJECT_COLOR)
         return
-    if name == "table":
+    if kind == "table":
         top, leg = model.shape("top").geometry, model.shape("leg").geometry
         height = float(pose[2])
         meshcat.SetObject(f"{path}/top", Box(*top.size), OBJECT_COLOR)
@@ -44,6 +45,11 @@ def _add_object(meshcat: Meshcat, path: str, name: str, pose: np.ndarray) -> Non
         g = shape.geometry
         meshcat.SetObject(f"{path}/{shape.name}", _drake_shape(g), Rgba(*shape.color))
         meshcat.SetTransform(f"{path}/{shape.name}", RigidTransform(RollPitchYaw(*g.rpy), list(g.position)))
+
+
+def _every_frame(poses: np.ndarray, count: int, frames: int) -> np.ndarray:
+    """A track of `count` frames read at the replay's `frames` (the last pose held past its end)."""
+    return poses[np.minimum(np.arange(frames), count - 1)]
 
 
 def _drake_shape(g):
@@ -85,18 +91,16 @@ def render_replay(clips: list[MotionClip], source: MotionClip | None = None, mes
     points = landmarks_of(source) if source is not None else {}
     for name in points:
         meshcat.SetObject(f"/source/{name}", Sphere(0.025), Rgba(0.1, 0.1, 0.1, 1.0))
-    # Objects keep the human's scale: draw them in the source's and the UDH's lanes.
-    carrier = source if source is not None else clips[0]
-    object_lanes = ([source_offset] if source is not None else []) + [
-        y for clip, y in zip(clips, clip_offsets) if clip.embodiment == "udh"
-    ]
+    # Every lane draws its own clip's object tracks (a robot's are scaled to it by the retargeting).
+    lanes_with_objects = ([(source, source_offset)] if source is not None else []) + list(zip(clips, clip_offsets))
     objects = []
-    if carrier.object_poses is not None:
-        for i, name in enumerate(carrier.object_names):
-            for lane, y in enumerate(object_lanes):
-                path = f"/objects/{name}_{lane}"
-                _add_object(meshcat, path, name, carrier.object_poses[0, i])
-                objects.append((path, carrier.object_poses[:, i], y))
+    for lane, (clip, y) in enumerate(lanes_with_objects):
+        if clip.object_poses is None:
+            continue
+        for i, name in enumerate(clip.object_names):
+            path = f"/objects/{name}_{lane}"
+            _add_object(meshcat, path, name, clip.object_poses[0, i])
+            objects.append((path, _every_frame(clip.object_poses[:, i], clip.num_frames, frames), y))
     layout = [(actuated_joint_order(plant, model), model) for model in models]
     meshcat.StartRecording(frames_per_second=fps / stride, set_visualizations_while_recording=False)
     recording = meshcat.get_mutable_recording()
