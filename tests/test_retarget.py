@@ -208,3 +208,23 @@ def test_cli_bad_input_is_one_line_and_others_still_run(tmp_path, name):
     assert sorted(p.name for p in out.iterdir()) == ["good_h1.npz"]
     report_json = json.loads((tmp_path / "r.json").read_text())
     assert list(report_json["clips"]) == ["good"] and len(report_json["errors"]) == 1
+
+
+@pytest.mark.parametrize("robot", ["udh", "h1", "curi"])
+def test_forward_kinematics_of_every_frame_at_once_matches_frame_by_frame(robot):
+    from hotu_drake.retarget.tree import Tree, axis_angles
+
+    emb = embodiment.load(robot, "none")
+    tree = Tree(emb.spec)
+    rng = np.random.default_rng(3)
+    frames = 7
+    low, high = np.maximum(emb.position_lower, -3.0), np.minimum(emb.position_upper, 3.0)  # CURI's base is unbounded
+    q = rng.uniform(low, high, size=(frames, len(emb.joint_names)))
+    axes = rng.normal(size=(frames, 3))
+    rotations = axis_angles(axes / np.linalg.norm(axes, axis=1, keepdims=True), rng.uniform(-3, 3, frames))
+    positions = rng.normal(size=(frames, 3))
+    batch = tree.forward_frames(q, rotations, positions)
+    for t in range(frames):
+        one = tree.forward(q[t], rotations[t], positions[t])
+        for field in ("rotations", "positions", "joint_axes", "joint_positions"):
+            np.testing.assert_allclose(getattr(batch, field)[t], getattr(one, field), atol=1e-12, err_msg=field)

@@ -1,4 +1,5 @@
-"""Forward kinematics of one embodiment for one frame, with what partial IK needs.
+"""Forward kinematics of one embodiment, with what partial IK needs: one
+frame (`Tree.forward`) or every frame of a clip at once (`Tree.forward_frames`).
 
 A plain NumPy pass over the joints (parent first): each link's world
 rotation and position, and each joint's world axis and position. Link
@@ -147,3 +148,32 @@ class Tree:
             rotations[children] = rot @ local[members]
             positions[children] = here + axis * slide[members, None]
         return Pose(rotations[:n_links], positions[:n_links], axes, joints)
+
+    def forward_frames(self, q: np.ndarray, root_rotation=None, root_position=None, groups=None) -> Pose:
+        """`forward` for T frames at once: `q` (T, n), root rotations (T, 3, 3)
+        and positions (T, 3); the `Pose` fields gain a leading frame axis.
+        Each depth of the tree is one batched step over joints and frames."""
+        q = np.asarray(q, dtype=float)
+        frames = len(q)
+        if groups is None:
+            groups = self._all_groups
+        n_links = len(self.link_names)
+        rotations = np.empty((frames, n_links + 1, 3, 3))
+        positions = np.empty((frames, n_links + 1, 3))
+        rotations[:, n_links], positions[:, n_links] = np.eye(3), 0.0
+        rotations[:, self.root] = np.eye(3) if root_rotation is None else root_rotation
+        positions[:, self.root] = 0.0 if root_position is None else root_position
+        axes = np.empty((frames, len(self._child), 3))
+        joints = np.empty((frames, len(self._child), 3))
+        angle = np.where(self._prismatic, 0.0, q)[..., None, None]
+        local = np.eye(3) + np.sin(angle) * self._skew + (1.0 - np.cos(angle)) * self._skew2
+        slide = np.where(self._prismatic, q, 0.0)
+        for members, parents, children in groups:
+            rot, pos = rotations[:, parents], positions[:, parents]
+            moved = rot @ self._offset_axis[members]  # (T, k, 3, 2): offset and axis columns
+            here = pos + moved[..., 0]
+            axis = moved[..., 1]
+            axes[:, members], joints[:, members] = axis, here
+            rotations[:, children] = rot @ local[:, members]
+            positions[:, children] = here + axis * slide[:, members, None]
+        return Pose(rotations[:, :n_links], positions[:, :n_links], axes, joints)
