@@ -228,3 +228,28 @@ def test_forward_kinematics_of_every_frame_at_once_matches_frame_by_frame(robot)
         one = tree.forward(q[t], rotations[t], positions[t])
         for field in ("rotations", "positions", "joint_axes", "joint_positions"):
             np.testing.assert_allclose(getattr(batch, field)[t], getattr(one, field), atol=1e-12, err_msg=field)
+
+
+def test_landmark_jacobians_of_every_frame_match_frame_by_frame():
+    from hotu_drake.embodiment.landmarks import landmark_placements
+    from hotu_drake.retarget.targets import Landmarks
+    from hotu_drake.retarget.tree import Tree
+
+    emb = embodiment.load("h1", "none")
+    tree = Tree(emb.spec)
+    marks = Landmarks(tree, landmark_placements(emb.spec))
+    rng = np.random.default_rng(5)
+    q = rng.uniform(emb.position_lower, emb.position_upper, size=(5, len(emb.joint_names)))
+    positions = rng.normal(size=(5, 3))
+    poses = tree.forward_frames(q, np.tile(np.eye(3), (5, 1, 1)), positions)
+    joints = list(range(len(emb.joint_names)))
+    for name in list(marks.items)[:6]:
+        points, jacobians = marks.point_jacobian_frames(poses, name, joints)
+        link = marks.items[name][0]
+        rotations = marks.rotation_jacobian_frames(link, poses, joints)
+        for t in range(5):
+            one = tree.forward(q[t], np.eye(3), positions[t])
+            point, jacobian = marks.point_jacobian(one, name, joints)
+            np.testing.assert_allclose(points[t], point, atol=1e-12)
+            np.testing.assert_allclose(jacobians[t], jacobian, atol=1e-12)
+            np.testing.assert_allclose(rotations[t], marks.rotation_jacobian(link, one, joints), atol=1e-12)

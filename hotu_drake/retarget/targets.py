@@ -67,6 +67,21 @@ class Landmarks:
         )
         return (turned * revolute + a * prismatic).T
 
+    def point_jacobian_frames(self, poses: Pose, name: str, joints: list[int]) -> tuple[np.ndarray, np.ndarray]:
+        """`point_jacobian` for every frame of `poses` (`Tree.forward_frames`):
+        positions (T, 3) and Jacobians (T, 3, k)."""
+        link, offset = self.items[name]
+        points = poses.positions[:, link] + poses.rotations[:, link] @ offset
+        index, revolute, prismatic = self._masks(link, joints)
+        axes = poses.joint_axes[:, index]  # (T, k, 3)
+        turned = np.cross(axes, points[:, None, :] - poses.joint_positions[:, index])
+        return points, np.swapaxes(turned * revolute + axes * prismatic, 1, 2)
+
+    def rotation_jacobian_frames(self, link: int, poses: Pose, joints: list[int]) -> np.ndarray:
+        """`rotation_jacobian` for every frame of `poses`: (T, 3, k)."""
+        index, revolute, _ = self._masks(link, joints)
+        return np.swapaxes(poses.joint_axes[:, index] * revolute, 1, 2)
+
     def rotation_jacobian(self, link: int, pose: Pose, joints: list[int]) -> np.ndarray:
         index, revolute, _ = self._masks(link, joints)
         return (pose.joint_axes[index] * revolute).T
