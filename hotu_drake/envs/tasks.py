@@ -44,6 +44,7 @@ from hotu_drake.plant import set_robot_state
 from hotu_drake.retarget.references import reference_clips
 from hotu_drake.scenario import Scenario
 from hotu_drake.systems.interaction_graph import GOAL_SIZE
+from hotu_drake.systems.transfer_reference import track_index
 
 HOLD_SECONDS = 1.0  # how long the task's end state must hold for success
 
@@ -184,8 +185,7 @@ class _ObjectTaskEnv(DiagramEnv):
         """The index of the clip's track of this task's object: the first object
         whose name starts with the object's kind, in any case (`box`, `Box1`,
         an OptiTrack rigid body `box_small`), or None."""
-        kind = self._object.kind.lower()
-        return next((k for k, name in enumerate(clip.object_names) if name.lower().startswith(kind)), None)
+        return track_index(clip, self._object.kind)
 
     def _count_success(self, info: dict, done: bool) -> None:
         """Count consecutive steps in the task's end state into

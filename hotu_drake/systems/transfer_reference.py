@@ -27,6 +27,7 @@ def track_index(clip: MotionClip, kind: str) -> int | None:
     """The index of the clip's first object track whose name starts with `kind` (any case), or None."""
     if clip.object_poses is None:
         return None
+    kind = kind.lower()
     return next((k for k, n in enumerate(clip.object_names) if n.lower().startswith(kind)), None)
 
 
