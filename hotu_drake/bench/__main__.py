@@ -2,7 +2,7 @@
 
 python -m hotu_drake.bench standing [--robot NAME|all] [--hands full|none|both]
                                     [--seconds S] [--time-step DT] [--no-self-collision]
-python -m hotu_drake.bench retarget [--input FILE] [--hands full|none|both] [--seconds S]
+python -m hotu_drake.bench retarget [--input FILE] [--hands full|none|both] [--seconds S] [--peer mink]
 python -m hotu_drake.bench diagram  [--robot NAME|all] [--hands full|none|both] [--seconds S] [--markdown]
 python -m hotu_drake.bench env      [--robot NAME] [--hands full|none] [--envs N] [--seconds S]
                                     [--motions M ...] [--backend local|ray] [--fidelity] [--peer mujoco] [--json]
@@ -30,16 +30,25 @@ def bench_env_settings() -> dict:
 
 
 def _retarget(args) -> int:
-    from hotu_drake.bench.retarget import retarget_throughput, source_clip
+    from hotu_drake.bench import mink_peer
+    from hotu_drake.bench.retarget import end_to_end_frames_per_second, retarget_throughput, source_clip
     from hotu_drake.motion.clip import ClipFormatError
 
     try:
         source = source_clip(args.input, args.seconds)
     except ClipFormatError as error:
         raise UserError(str(error)) from None
+    peer = args.peer == "mink"
+    if peer and not mink_peer.mink_available():
+        print(f"bench retarget: --peer mink skipped: {mink_peer.SKIP_MESSAGE}", file=sys.stderr, flush=True)
+        peer = False
+    if peer and source.embodiment != "human":
+        print("bench retarget: --peer mink skipped: it retargets a human demonstration", file=sys.stderr, flush=True)
+        peer = False
     pin_to_one_core()
+    variants = ("full", "none") if args.hands == "both" else (args.hands,)
     results = []
-    for hands in ("full", "none") if args.hands == "both" else (args.hands,):
+    for hands in variants:
         for row in retarget_throughput(source, hands):
             print(json.dumps(row), file=sys.stderr, flush=True)
             results.append(row)
@@ -49,6 +58,16 @@ def _retarget(args) -> int:
         "source": {"clip": source.source, "frames": source.num_frames, "fps": source.fps},
         "results": results,
     }
+    if peer:  # the same clip straight onto each robot; ours goes human -> UDH -> robot
+        ours = end_to_end_frames_per_second(results)
+        report["peer"], report["speedup"] = [], {}
+        for row in results:
+            peer_row = mink_peer.mink_throughput(source, row["robot"], row["hands"])
+            fps = peer_row["ours_end_to_end_frames_per_second"] = ours[row["robot"], row["hands"]]
+            peer_row["speedup"] = None if fps is None else round(fps / peer_row["frames_per_second"], 3)
+            print(json.dumps(peer_row), file=sys.stderr, flush=True)
+            report["peer"].append(peer_row)
+            report["speedup"].setdefault(row["robot"], {})[row["hands"]] = peer_row["speedup"]
     print(json.dumps(report, indent=2))
     return 0
 
@@ -237,6 +256,9 @@ def main(argv: list[str] | None = None) -> int:
     retarget.add_argument("--input", help="a BVH, C3D or .npz demonstration (default: the generated walk at 120 fps)")
     retarget.add_argument("--hands", choices=["full", "none", "both"], default="both")
     retarget.add_argument("--seconds", type=positive_float, help="use only the first S seconds")
+    retarget.add_argument(
+        "--peer", choices=["mink"], help="also run mink's differential IK, set up as GMR does (the mink extra)"
+    )
     retarget.add_argument("--json", action="store_true", help="accepted for symmetry; output is always JSON")
     diagram = sub.add_parser("diagram", help="real-time factors of the scenario diagrams and cost per added system")
     diagram.add_argument("--robot", default="all", help="an embodiment name or 'all'")

@@ -38,6 +38,7 @@ def retarget_throughput(source: MotionClip, hands: str, robots: tuple[str, ...] 
                 "robot": robot,
                 "hands": hands,
                 "frames": figures["frames"],
+                "seconds": round(stage.seconds, 6),
                 "frames_per_second": figures["frames_per_second"],
                 "joint_limit_violations": figures["joint_limit_violations"],
                 "foot_skate_m_per_s": figures["foot_skate_m_per_s"],
@@ -46,3 +47,14 @@ def retarget_throughput(source: MotionClip, hands: str, robots: tuple[str, ...] 
             }
         )
     return rows
+
+
+def end_to_end_frames_per_second(rows: list[dict]) -> dict[tuple[str, str], float | None]:
+    """(robot, hands) -> human -> robot frames per second of `retarget_throughput`
+    rows: the UDH stage's seconds plus the robot's own (the UDH's alone for `udh`)."""
+    udh = {row["hands"]: row["seconds"] for row in rows if row["robot"] == "udh"}
+    out = {}
+    for row in rows:
+        seconds = udh[row["hands"]] + (row["seconds"] if row["robot"] != "udh" else 0.0)
+        out[row["robot"], row["hands"]] = round(row["frames"] / seconds, 1) if seconds > 0 else None
+    return out
