@@ -72,3 +72,9 @@ class Soles:
         link, points, radii = self.feet[side]
         z = pose.positions[link][2] + points @ pose.rotations[link][2]
         return float(np.min(z - radii))
+
+    def lowest_frames(self, poses: Pose, side: str) -> np.ndarray:
+        """`lowest` for every frame of `poses` (`Tree.forward_frames`): (T,)."""
+        link, points, radii = self.feet[side]
+        z = poses.positions[:, link, 2:3] + poses.rotations[:, link, 2] @ points.T
+        return np.min(z - radii, axis=1)

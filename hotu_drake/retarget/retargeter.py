@@ -1,10 +1,15 @@
 """Kinematic retargeting of landmark motion onto one embodiment.
 
-Per frame: the floating base follows the source pelvis (scaled by the ratio
-of leg lengths); every functional part then solves its partial IK
-(proximal parts first) against directions and body frames of the source;
-planted feet are pinned where they landed and the root height keeps the
-soles on the floor. Velocities are finite differences of the positions.
+The floating base follows the source pelvis (scaled by the ratio of leg
+lengths); every functional part then solves its partial IK (proximal parts
+first) against directions and body frames of the source; planted feet are
+pinned where they landed and the root height keeps the soles on the floor.
+Velocities are finite differences of the positions.
+
+A whole clip is solved offline by one program per level of the tree over
+all frames (`clip_programs`); a stream (`RetargetStream`, the
+`RetargetingSystem` of a diagram) solves one frame at a time. Both share
+the parts and their targets.
 """
 
 import copy
@@ -20,6 +25,7 @@ from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import landmarks_of
 from hotu_drake.objects import scale_object_poses
 from hotu_drake.retarget import frames
+from hotu_drake.retarget.clip_programs import retarget_clip
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
 from hotu_drake.retarget.part_ik import PartProblem
 from hotu_drake.retarget.targets import BendPlane, Coupling, Direction, Landmarks, Orientation, Position
@@ -33,8 +39,13 @@ LEVEL_TOLERANCE = 0.01  # rad: and a planted sole this close to level
 
 @dataclass
 class RetargetOptions:
-    """Knobs of the per-frame solve."""
+    """Knobs of the whole-clip and the per-frame solves."""
 
+    whole_clip: bool = True  # a clip at once (`clip_programs`); False: frame by frame, as a stream does
+    clip_iterations: int = 8  # whole clip: at most this many relinearisations of all levels on the coarse frames
+    coarse_stride: int = 8  # every this many frames of the clip (1: no coarse pass)
+    fine_iterations: int = 2  # then over all frames
+    lock_iterations: int = 3  # and of the legs' program that plants the feet
     sweeps: int = 2  # at most this many passes over all parts per frame (30 fps)
     high_rate_sweeps: int = 1  # the same at 60 fps or more, where frames are close
     tolerance: float = 2e-3  # stop the passes once no joint moves more (rad)
@@ -95,6 +106,7 @@ class Retargeter:
         rest_pose = self.tree.forward(self.q_rest)
         self.rest = self.marks.all_positions(rest_pose)
         self.rest_frames = self._rest_frames()
+        self.pelvis_offset = self.rest["pelvis"] - rest_pose.positions[self.tree.root]
         self.soles = Soles(self.spec, self.tree)
         self.legged = "left_ankle" in self.marks and "left_ankle" in source_landmarks
         self.parts = self._build_parts(set(source_landmarks))
@@ -231,6 +243,28 @@ class Retargeter:
                 locks[side] = (self._problem(f"{side}_leg_lock", joints), Position(f"{side}_ankle", 10.0), orientation)
         return locks
 
+    def root_path(
+        self, src: dict[str, np.ndarray], src_frames: dict[str, np.ndarray], ratio: float
+    ) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
+        """Planar base joints (T, 3) (none for a floating base), root rotations
+        (T, 3, 3) and positions (T, 3) that follow the source, before the feet."""
+        frames_count = len(next(iter(src.values())))
+        root_rest = self.rest_frames.get(self.root_frame)
+        pelvis = src.get("pelvis")
+        if self.spec.floating_base and pelvis is not None:
+            rotations = src_frames[self.root_frame] @ root_rest.T
+            return None, rotations, pelvis * ratio - rotations @ self.pelvis_offset
+        if self.spec.floating_base:  # the upper body only: stand under the chest, facing its way
+            rotations = heading_rotation(src_frames["chest"] @ root_rest.T)
+            positions = src["chest"].copy()
+            positions[:, 2] = self.embodiment.standing_root_height
+            return None, rotations, positions
+        # A planar base follows the pelvis (or the chest) over the floor.
+        over = pelvis if pelvis is not None else src["chest"]
+        heading = heading_rotation(src_frames["pelvis"])
+        base = np.column_stack((over[:, 0], over[:, 1], np.arctan2(heading[:, 1, 0], heading[:, 0, 0])))
+        return base, np.tile(np.eye(3), (frames_count, 1, 1)), np.zeros((frames_count, 3))
+
     # --- per frame ----------------------------------------------------------------
 
     def _target(self, key, t: int, src: dict, src_frames: dict, pose) -> np.ndarray:
@@ -305,6 +339,10 @@ class Retargeter:
         contacts = {}
         if self.legged:  # the source's own foot contacts carry through human -> UDH -> robot
             contacts = foot_contacts_of(source, frames_count) or detect_foot_contacts(src, fps)
+        if self.options.whole_clip:
+            ratio = self.scale_ratio(src)
+            q, rotations, positions = retarget_clip(self, src, src_frames, contacts, ratio)
+            return self._clip(q, rotations, positions, fps, source, contacts, ratio)
         stream = RetargetStream(self, fps, src)
         out_q = np.zeros((frames_count, len(self.tree.joint_names)))
         out_rotation = np.zeros((frames_count, 3, 3))
@@ -315,6 +353,11 @@ class Retargeter:
             planted = {side: bool(flags[t]) for side, flags in contacts.items()}
             out_q[t], out_rotation[t], out_position[t] = stream.push(frame, body, planted)
         return self._clip(out_q, out_rotation, out_position, fps, source, contacts, stream.ratio)
+
+    def scale_ratio(self, src: dict[str, np.ndarray]) -> float:
+        """The body-size ratio (leg lengths, this embodiment over the source)
+        that scales the root path and the objects."""
+        return _leg_length(self.rest) / _leg_length(src) if self.legged else 1.0
 
     def _body_pose(self, q, root_rotation, root_position):
         """Poses of every link but the fingers."""
@@ -387,10 +430,7 @@ class Retargeter:
         key_names = list(self.embodiment.key_bodies.values())
         key_names = list(dict.fromkeys(key_names))
         key_index = [self.tree.link_index[n] for n in key_names]
-        key_positions = np.zeros((len(q), len(key_names), 3))
-        for t in range(len(q)):
-            pose = self._body_pose(q[t], rotations[t], positions[t])
-            key_positions[t] = pose.positions[key_index]
+        key_positions = self.tree.forward_frames(q, rotations, positions, self._body_groups).positions[:, key_index]
         contact_names = [f"{s}_foot" for s in SIDES if s in contacts]
         objects = None
         if source is not None and source.object_poses is not None:
@@ -421,9 +461,7 @@ class RetargetStream:
     def __init__(self, retargeter: Retargeter, fps: float, sample: dict[str, np.ndarray]):
         r = self.retargeter = retargeter
         self.fps = fps
-        self.ratio = _leg_length(r.rest) / _leg_length(sample) if r.legged else 1.0
-        self.root_rest = r.rest_frames.get(r.root_frame)
-        self.pelvis_offset = r.rest["pelvis"] - r.tree.forward(r.q_rest).positions[r.tree.root]
+        self.ratio = r.scale_ratio(sample)
         self.sweeps = r.options.high_rate_sweeps if fps >= 60 else r.options.sweeps
         self.q = r.embodiment.standing_pose.copy()
         self.q_previous = self.q.copy()
@@ -450,18 +488,10 @@ class RetargetStream:
         """
         r, q = self.retargeter, self.q
         src_frames = _source_frames(src) if src_frames is None else src_frames
-        pelvis = src["pelvis"][0] if "pelvis" in src else None
-        if r.spec.floating_base and pelvis is not None:
-            root_rotation = src_frames[r.root_frame][0] @ self.root_rest.T
-            root_position = pelvis * self.ratio - root_rotation @ self.pelvis_offset
-        elif r.spec.floating_base:  # the upper body only: stand under the chest, facing its way
-            root_rotation = heading_rotation(src_frames["chest"][0] @ self.root_rest.T)
-            root_position = np.array([src["chest"][0][0], src["chest"][0][1], r.embodiment.standing_root_height])
-        else:  # a planar base follows the pelvis (or the chest) over the floor
-            over = pelvis if pelvis is not None else src["chest"][0]
-            heading = heading_rotation(src_frames["pelvis"][0])
-            q[r.base] = [over[0], over[1], np.arctan2(heading[1, 0], heading[0, 0])]
-            root_rotation, root_position = np.eye(3), np.zeros(3)
+        base, rotations, positions = r.root_path(src, src_frames, self.ratio)
+        if base is not None:
+            q[r.base] = base[0]
+        root_rotation, root_position = rotations[0], positions[0].copy()
         root_position[2] += self.height_offset
         sweeps = r.options.first_frame_sweeps if self.count == 0 else self.sweeps
         r._solve_parts(q, self.q_previous, root_rotation, root_position, 0, src, src_frames, sweeps)

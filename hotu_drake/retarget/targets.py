@@ -1,8 +1,10 @@
-"""What each part's partial IK tries to match, linearised for one frame.
+"""What each part's partial IK tries to match, linearised.
 
 Every target compares a quantity of the embodiment (from its landmarks and
-`Pose`) with the same quantity of the source (from the source's landmarks
-at this frame) and returns the Jacobian rows over a part's joints.
+`Pose`) with the same quantity of the source and returns the Jacobian rows
+over a part's joints: `rows` for one frame (the streaming path), and
+`rows_frames` for every frame of a clip at once (the whole-clip programs),
+with a leading frame axis on the Jacobians, errors and weights.
 """
 
 from dataclasses import dataclass
@@ -10,11 +12,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from hotu_drake.retarget.tree import Pose, Tree, cross, rotation_vector
+from hotu_drake.rotations import rotation_log
 
 
 def _normalize(v: np.ndarray) -> tuple[np.ndarray, float]:
     n = float(np.linalg.norm(v))
     return v / max(n, 1e-9), n
+
+
+def _normalize_frames(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    n = np.linalg.norm(v, axis=-1)
+    return v / np.maximum(n, 1e-9)[:, None], n
 
 
 class Landmarks:
@@ -102,6 +110,14 @@ class Direction:
         jacobian = (np.eye(3) - np.outer(u, u)) @ (je - js) / max(length, 1e-9)
         return jacobian, target - u, self.weight
 
+    def rows_frames(self, marks: Landmarks, poses: Pose, joints: list[int], targets: np.ndarray):
+        ps, js = marks.point_jacobian_frames(poses, self.start, joints)
+        pe, je = marks.point_jacobian_frames(poses, self.end, joints)
+        u, length = _normalize_frames(pe - ps)
+        projector = np.eye(3) - u[:, :, None] * u[:, None, :]
+        jacobian = projector @ (je - js) / np.maximum(length, 1e-9)[:, None, None]
+        return jacobian, targets - u, np.full(len(u), self.weight)
+
 
 @dataclass
 class BendPlane:
@@ -125,6 +141,16 @@ class BendPlane:
         normal, bend = _normalize(target)
         return jacobian, self.sign * normal - axis, self.weight * min(1.0, bend / 0.3)
 
+    def rows_frames(self, marks: Landmarks, poses: Pose, joints: list[int], targets: np.ndarray):
+        axis = poses.joint_axes[:, self.joint]  # (T, 3)
+        ancestors = marks.tree.ancestors[self.joint][:-1]
+        jacobian = np.zeros((len(axis), 3, len(joints)))
+        for col, j in enumerate(joints):
+            if j in ancestors and marks.tree._revolute[j]:
+                jacobian[:, :, col] = np.cross(poses.joint_axes[:, j], axis)
+        normal, bend = _normalize_frames(targets)
+        return jacobian, self.sign * normal - axis, self.weight * np.minimum(1.0, bend / 0.3)
+
 
 @dataclass
 class Orientation:
@@ -138,6 +164,11 @@ class Orientation:
         desired = target @ self.rest_frame.T
         error = rotation_vector(desired @ pose.rotations[self.link].T)
         return marks.rotation_jacobian(self.link, pose, joints), error, self.weight
+
+    def rows_frames(self, marks: Landmarks, poses: Pose, joints: list[int], targets: np.ndarray):
+        desired = targets @ self.rest_frame.T
+        error = rotation_log(desired @ np.swapaxes(poses.rotations[:, self.link], 1, 2))
+        return marks.rotation_jacobian_frames(self.link, poses, joints), error, np.full(len(error), self.weight)
 
 
 @dataclass
@@ -153,6 +184,12 @@ class Coupling:
         jacobian[0, self.first], jacobian[0, self.second] = 1.0, -1.0
         return jacobian, np.array([q[joints[self.second]] - q[joints[self.first]]]), self.weight
 
+    def rows_frames(self, marks: Landmarks, poses: Pose, joints: list[int], q: np.ndarray):
+        jacobian = np.zeros((len(q), 1, len(joints)))
+        jacobian[:, 0, self.first], jacobian[:, 0, self.second] = 1.0, -1.0
+        error = (q[:, joints[self.second]] - q[:, joints[self.first]])[:, None]
+        return jacobian, error, np.full(len(q), self.weight)
+
 
 @dataclass
 class Position:
@@ -164,3 +201,7 @@ class Position:
     def rows(self, marks: Landmarks, pose: Pose, joints: list[int], target: np.ndarray):
         point, jacobian = marks.point_jacobian(pose, self.landmark, joints)
         return jacobian, target - point, self.weight
+
+    def rows_frames(self, marks: Landmarks, poses: Pose, joints: list[int], targets: np.ndarray):
+        points, jacobian = marks.point_jacobian_frames(poses, self.landmark, joints)
+        return jacobian, targets - points, np.full(len(points), self.weight)

@@ -152,28 +152,44 @@ class Tree:
     def forward_frames(self, q: np.ndarray, root_rotation=None, root_position=None, groups=None) -> Pose:
         """`forward` for T frames at once: `q` (T, n), root rotations (T, 3, 3)
         and positions (T, 3); the `Pose` fields gain a leading frame axis.
-        Each depth of the tree is one batched step over joints and frames."""
+
+        Each depth of the tree is one batched step over joints and frames,
+        computed component by component (arrays (3, 3, links, T)): plain
+        elementwise arithmetic over long rows instead of many 3 x 3 products.
+        """
         q = np.asarray(q, dtype=float)
         frames = len(q)
         if groups is None:
             groups = self._all_groups
         n_links = len(self.link_names)
-        rotations = np.empty((frames, n_links + 1, 3, 3))
-        positions = np.empty((frames, n_links + 1, 3))
-        rotations[:, n_links], positions[:, n_links] = np.eye(3), 0.0
-        rotations[:, self.root] = np.eye(3) if root_rotation is None else root_rotation
-        positions[:, self.root] = 0.0 if root_position is None else root_position
-        axes = np.empty((frames, len(self._child), 3))
-        joints = np.empty((frames, len(self._child), 3))
-        angle = np.where(self._prismatic, 0.0, q)[..., None, None]
-        local = np.eye(3) + np.sin(angle) * self._skew + (1.0 - np.cos(angle)) * self._skew2
-        slide = np.where(self._prismatic, q, 0.0)
+        rotations = np.empty((3, 3, n_links + 1, frames))
+        positions = np.empty((3, n_links + 1, frames))
+        rotations[:, :, n_links], positions[:, n_links] = np.eye(3)[:, :, None], 0.0
+        root = np.broadcast_to(np.eye(3) if root_rotation is None else root_rotation, (frames, 3, 3))
+        rotations[:, :, self.root] = np.transpose(root, (1, 2, 0))
+        positions[:, self.root] = 0.0 if root_position is None else np.asarray(root_position).T
+        axes = np.empty((3, len(self._child), frames))
+        joints = np.empty((3, len(self._child), frames))
         for members, parents, children in groups:
-            rot, pos = rotations[:, parents], positions[:, parents]
-            moved = rot @ self._offset_axis[members]  # (T, k, 3, 2): offset and axis columns
-            here = pos + moved[..., 0]
-            axis = moved[..., 1]
+            rot, pos = rotations[:, :, parents], positions[:, parents]  # (3, 3, k, T), (3, k, T)
+            offset_axis = np.transpose(self._offset_axis[members], (1, 2, 0))[..., None]  # (3, 2, k, 1)
+            here = pos + np.einsum("ijkt,jkt->ikt", rot, np.broadcast_to(offset_axis[:, 0], rot.shape[1:]))
+            axis = np.einsum("ijkt,jkt->ikt", rot, np.broadcast_to(offset_axis[:, 1], rot.shape[1:]))
             axes[:, members], joints[:, members] = axis, here
-            rotations[:, children] = rot @ local[:, members]
-            positions[:, children] = here + axis * slide[:, members, None]
-        return Pose(rotations[:, :n_links], positions[:, :n_links], axes, joints)
+            value = q[:, members].T  # (k, T)
+            revolute = ~self._prismatic[members][:, None]
+            angle = np.where(revolute, value, 0.0)
+            skew = np.transpose(self._skew[members], (1, 2, 0))[..., None]  # (3, 3, k, 1)
+            skew2 = np.transpose(self._skew2[members], (1, 2, 0))[..., None]
+            local = np.sin(angle) * skew + (1.0 - np.cos(angle)) * skew2
+            local[0, 0] += 1.0
+            local[1, 1] += 1.0
+            local[2, 2] += 1.0
+            rotations[:, :, children] = np.einsum("ijkt,jlkt->ilkt", rot, local)
+            positions[:, children] = here + axis * np.where(revolute, 0.0, value)
+        return Pose(
+            np.transpose(rotations[:, :, :n_links], (3, 2, 0, 1)),
+            np.transpose(positions[:, :n_links], (2, 1, 0)),
+            np.transpose(axes, (2, 1, 0)),
+            np.transpose(joints, (2, 1, 0)),
+        )

@@ -1,0 +1,373 @@
+"""Whole-clip retargeting: one convex program per level of the tree, over every frame.
+
+Offline the whole clip is known, so instead of stepping each part frame by
+frame (`RetargetStream`, the streaming path), all parts of one level of the
+tree (proximal first: torso, shoulders, hips; then elbows, knees and the
+neck; then wrists and ankles; then fingers) are solved for every frame at
+once. The step dq of the level's joints minimises
+
+    sum_t [ sum_k w_tk |J_tk dq_t - e_tk|^2 + reg |dq_t|^2 ]
+      + smooth sum_t |(q + dq)_{t+1} - (q + dq)_t|^2
+
+within the joint limits and a trust region: one Drake `MathematicalProgram`
+per level, built once per clip and solved by OSQP, whose cost coefficients
+and bounds are updated at each relinearisation (sequential convex
+programming). Forward kinematics and Jacobians of all frames are one
+vectorised pass (`Tree.forward_frames`, `Landmarks.*_frames`); the targets
+and parts are the streaming path's own.
+
+Planted feet: after the parts, the root height keeps planted soles on the
+floor, the root follows the earliest planted foot's anchor, and one more
+program over both legs holds every planted ankle on its anchor with its sole
+level, over each contact phase.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+from pydrake.solvers import MathematicalProgram, OsqpSolver, SolverOptions
+
+from hotu_drake.embodiment.spec import SIDES
+from hotu_drake.retarget.part_ik import TRUST_REGION
+from hotu_drake.retarget.tree import Pose
+from hotu_drake.rotations import heading_rotation
+
+if TYPE_CHECKING:
+    from hotu_drake.retarget.retargeter import Retargeter
+
+
+class ClipProgram:
+    """The QP of some joints (indices into the embodiment's q) over all frames.
+
+    Variables: dq (T, K). The costs come in blocks of `BLOCK` frames: each
+    block's quadratic cost holds its frames' targets and their smoothness
+    coupling to the next frame (the first of the next block), so the
+    program's Hessian is block tridiagonal in time and Drake keeps few
+    bindings to update.
+    """
+
+    BLOCK = 8
+
+    def __init__(
+        self,
+        name: str,
+        joints: list[int],
+        lower: np.ndarray,
+        upper: np.ndarray,
+        frames: int,
+        regularization: float,
+        smoothness: float,
+    ):
+        self.name, self.joints, self.frames = name, list(joints), frames
+        self.lower, self.upper = np.asarray(lower, float), np.asarray(upper, float)
+        self.regularization, self.smoothness = regularization, smoothness
+        k = len(self.joints)
+        self.program = MathematicalProgram()
+        self.dq = self.program.NewContinuousVariables(frames, k, f"d{name}")
+        # Blocks whose cost reaches into the next frame, and the last one (which cannot).
+        starts = np.arange(0, frames, self.BLOCK)
+        self._linked = starts[starts + self.BLOCK < frames]
+        self._tail = int(self._linked[-1] + self.BLOCK) if len(self._linked) else 0
+        self._costs = []
+        for start in (*self._linked, self._tail):
+            end = min(start + self.BLOCK + 1, frames)
+            block = self.dq[start:end].reshape(-1)
+            self._costs.append(self.program.AddQuadraticCost(np.eye(len(block)), np.zeros(len(block)), block, True))
+        self._bounds = self.program.AddBoundingBoxConstraint(
+            -np.ones(frames * k), np.ones(frames * k), self.dq.reshape(-1)
+        )
+        self._solver = OsqpSolver()
+        self._options = SolverOptions()
+        # A relinearised step needs no more accuracy than this.
+        for option, value in (("verbose", 0), ("polishing", 0), ("eps_abs", 1e-3), ("eps_rel", 1e-3)):
+            self._options.SetOption(self._solver.solver_id(), option, value)
+
+    def _blocks(self, starts: np.ndarray, own: int, linked: bool, hessian, gradient, change):
+        """Costs (x' Q x / 2 + b' x) of blocks of `own` frames from `starts`,
+        with (`linked`) or without the next frame."""
+        k, s = hessian.shape[-1], self.smoothness
+        size = own + linked
+        q5 = np.zeros((len(starts), size, k, size, k))
+        b3 = np.zeros((len(starts), size, k))
+        eye = s * np.eye(k)
+        for i in range(own):
+            q5[:, i, :, i, :] += hessian[starts + i]
+            b3[:, i] += gradient[starts + i]
+        for i in range(own if linked else own - 1):  # frames i and i + 1: s |dq_i+1 - dq_i + c_i|^2
+            q5[:, i, :, i, :] += eye
+            q5[:, i + 1, :, i + 1, :] += eye
+            q5[:, i, :, i + 1, :] -= eye
+            q5[:, i + 1, :, i, :] -= eye
+            b3[:, i] -= s * change[starts + i]
+            b3[:, i + 1] += s * change[starts + i]
+        return 2.0 * q5.reshape(len(starts), size * k, size * k), 2.0 * b3.reshape(len(starts), size * k)
+
+    def step(self, hessian: np.ndarray, gradient: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """The step (T, K) that minimises the frames' costs dq' H_t dq + 2 g_t' dq
+        (`hessian` (T, K, K), `gradient` (T, K)), plus the regularisation and
+        the smoothness of q + dq; `q` (T, K) is the current configuration."""
+        frames, k = q.shape
+        hessian = hessian + self.regularization * np.eye(k)
+        change = q[1:] - q[:-1]  # the smoothness term's constant: q_t+1 - q_t
+        blocks = []
+        if len(self._linked):
+            blocks += zip(*self._blocks(self._linked, self.BLOCK, True, hessian, gradient, change))
+        tail = np.array([self._tail])
+        blocks += zip(*self._blocks(tail, frames - self._tail, False, hessian, gradient, change))
+        for cost, (matrix, vector) in zip(self._costs, blocks):
+            cost.evaluator().UpdateCoefficients(matrix, vector, 0.0, True)
+        low = np.minimum(np.maximum(self.lower - q, -TRUST_REGION), 0.0)
+        high = np.maximum(np.minimum(self.upper - q, TRUST_REGION), 0.0)
+        self._bounds.evaluator().set_bounds(low.reshape(-1), high.reshape(-1))
+        result = self._solver.Solve(self.program, None, self._options)
+        if not result.is_success():
+            return np.zeros_like(q)
+        # dq is the program's only variable, stored column by column (Eigen's order).
+        return np.clip(result.get_x_val().reshape(k, frames).T, low, high)
+
+
+def normal_equations(rows: list) -> tuple[np.ndarray, np.ndarray]:
+    """H_t = sum_k w J'J and g_t = -sum_k w J'e over a part's target rows
+    ((J (T, m, k), e (T, m), w (T,)) each)."""
+    hessian, gradient = 0.0, 0.0
+    for jacobian, error, weight in rows:
+        weighted = jacobian * weight[:, None, None]
+        hessian = hessian + np.swapaxes(weighted, 1, 2) @ jacobian
+        gradient = gradient - np.einsum("tmk,tm->tk", weighted, error)
+    return hessian, gradient
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-9)
+
+
+class ClipSolver:
+    """Retargets a whole clip with one `ClipProgram` per level of the tree
+    (and one over both legs for the planted feet)."""
+
+    def __init__(self, retargeter: Retargeter, frames: int):
+        self.r = r = retargeter
+        self.frames = frames
+        options = r.options
+        self.levels: dict[int, list] = {}
+        for part in r.parts:
+            self.levels.setdefault(part.level, []).append(part)
+        self.programs = {}
+        for level, parts in self.levels.items():
+            joints = [j for part in parts for j in part.problem.joints]
+            self.programs[level] = self._program(f"level{level}", joints, frames)
+        self.lock = None
+        if r.legged and r._lock and options.lock_feet:
+            joints = [j for side in SIDES if side in r._lock for j in r._lock[side][0].joints]
+            self.lock = self._program("legs", joints, frames)
+
+    def _program(self, name: str, joints: list[int], frames: int) -> ClipProgram:
+        emb, options = self.r.embodiment, self.r.options
+        return ClipProgram(
+            name,
+            joints,
+            emb.position_lower[joints],
+            emb.position_upper[joints],
+            frames,
+            options.regularization,
+            options.smoothness,
+        )
+
+    # --- the parts ------------------------------------------------------------------
+
+    def source_targets(self, src: dict, src_frames: dict) -> dict:
+        """The targets that depend on the source only, per key (all frames)."""
+        out = {}
+        for parts in self.levels.values():
+            for part in parts:
+                for _, key in part.targets:
+                    if key == "q" or key in out:
+                        continue
+                    kind = key if isinstance(key, str) else key[0]
+                    if kind == "dir":
+                        out[key] = _unit(src[key[2]] - src[key[1]])
+                    elif kind == "bend":
+                        a, b, c = (src[n] for n in key[1:])
+                        out[key] = np.cross(_unit(b - a), _unit(c - b))
+                    elif kind == "finger":  # the finger's direction in the source's hand frame
+                        v = _unit(src[key[2]] - src[key[1]])
+                        out[key] = np.einsum("tji,tj->ti", src_frames[key[3]], v)
+                    else:
+                        out[key] = src_frames[key]
+        return out
+
+    def _target(self, key, fixed: dict, q: np.ndarray, poses: Pose) -> np.ndarray:
+        if key == "q":
+            return q
+        if key[0] == "finger":  # expressed in the robot's current hand frame
+            hand = key[3]
+            robot_hand = poses.rotations[:, self.r._link_of(hand)] @ self.r.rest_frames[hand]
+            return np.einsum("tij,tj->ti", robot_hand, fixed[key])
+        return fixed[key]
+
+    def solve_parts(
+        self, q: np.ndarray, rotations: np.ndarray, positions: np.ndarray, fixed: dict, iterations: int
+    ) -> None:
+        """Relinearise and solve every level in turn (at most `iterations`
+        times, until no joint moves more than the tolerance), in place on q (T, n)."""
+        r = self.r
+        for _ in range(iterations):
+            largest = 0.0
+            for level in sorted(self.levels):
+                groups = None if level >= 3 else r._body_groups
+                poses = r.tree.forward_frames(q, rotations, positions, groups)
+                program = self.programs[level]
+                k = len(program.joints)
+                hessian = np.zeros((self.frames, k, k))
+                gradient = np.zeros((self.frames, k))
+                start = 0
+                for part in self.levels[level]:
+                    joints = part.problem.joints
+                    block = slice(start, start + len(joints))
+                    hessian[:, block, block], gradient[:, block] = normal_equations(
+                        self._rows(part, joints, fixed, q, poses)
+                    )
+                    start += len(joints)
+                step = program.step(hessian, gradient, q[:, program.joints])
+                q[:, program.joints] += step
+                largest = max(largest, float(np.max(np.abs(step))))
+            if largest < r.options.tolerance:
+                break
+
+    def _rows(self, part, joints: list[int], fixed: dict, q: np.ndarray, poses: Pose) -> list:
+        """A part's target rows over `joints` for every frame."""
+        return [
+            target.rows_frames(self.r.marks, poses, joints, self._target(key, fixed, q, poses))
+            for target, key in part.targets
+        ]
+
+    # --- the feet -------------------------------------------------------------------
+
+    def _lowest(self, q, rotations, positions) -> dict[str, np.ndarray]:
+        poses = self.r.tree.forward_frames(q, rotations, positions, self.r._body_groups)
+        return {side: self.r.soles.lowest_frames(poses, side) for side in self.r.soles.feet}
+
+    def _heights(self, lowest: dict[str, np.ndarray], contacts: dict[str, np.ndarray]) -> np.ndarray:
+        """Root height offsets: the lowest planted sole on the floor, held
+        while no foot is planted, and no sole ever below the floor."""
+        offsets = np.zeros(self.frames)
+        offset = 0.0
+        feet = np.stack(list(lowest.values()), axis=1)  # (T, feet)
+        flags = np.stack([contacts[side] if side in contacts else np.zeros(self.frames, bool) for side in lowest], 1)
+        for t in range(self.frames):
+            planted = np.flatnonzero(flags[t])
+            if planted.size:
+                offset = -float(np.min(feet[t, planted]))
+            offset = max(offset, -float(np.min(feet[t])))
+            offsets[t] = offset
+        return offsets
+
+    def plant_feet(
+        self, q: np.ndarray, rotations: np.ndarray, positions: np.ndarray, contacts: dict, fixed: dict
+    ) -> np.ndarray:
+        """Root positions (T, 3) that keep planted feet on the floor and where
+        they landed; the leg joints of q are corrected in place."""
+        r = self.r
+        positions = positions.copy()
+        positions[:, 2] += self._heights(self._lowest(q, rotations, positions), contacts)
+        if self.lock is None:
+            return positions
+        poses = r.tree.forward_frames(q, rotations, positions, r._body_groups)
+        ankles = {side: r.marks.point_jacobian_frames(poses, f"{side}_ankle", [])[0] for side in r._lock}
+        anchors = {side: np.full((self.frames, 3), np.nan) for side in r._lock}
+        shift = np.zeros((self.frames, 3))
+        current: dict[str, np.ndarray] = {}
+        for t in range(self.frames):
+            planted = [s for s in r._lock if contacts.get(s) is not None and contacts[s][t]]
+            for side in list(current):
+                if side not in planted:
+                    del current[side]
+            for side in planted:  # a foot lands: its anchor is where it is, unshifted
+                current.setdefault(side, ankles[side][t].copy())
+                anchors[side][t] = current[side]
+            if planted:  # the earliest planted foot carries the body
+                drift = current[planted[0]] - ankles[planted[0]][t]
+                shift[t, :2] = drift[:2]
+        positions += shift
+        self._lock_legs(q, rotations, positions, anchors, fixed)
+        # The levelled soles: planted ones back on the floor, none below it.
+        positions[:, 2] += self._heights(self._lowest(q, rotations, positions), contacts)
+        return positions
+
+    def _lock_legs(self, q, rotations, positions, anchors: dict[str, np.ndarray], fixed: dict) -> None:
+        """The leg program: the legs' own targets, and over each contact phase
+        the planted ankle on its anchor with its sole level; a few
+        relinearisations of one program over both legs."""
+        r, program = self.r, self.lock
+        leg_parts = {
+            side: [p for p in r.parts if p.name in {f"{side}_{n}" for n in ("hip", "knee", "ankle")}] for side in SIDES
+        }
+        k = len(program.joints)
+        planted = {side: ~np.isnan(anchor[:, 0]) for side, anchor in anchors.items()}
+        for _ in range(r.options.lock_iterations):
+            poses = r.tree.forward_frames(q, rotations, positions, r._body_groups)
+            hessian = np.zeros((self.frames, k, k))
+            gradient = np.zeros((self.frames, k))
+            start = 0
+            for side in (s for s in SIDES if s in r._lock):
+                problem, position, orientation = r._lock[side]
+                joints = problem.joints
+                mask = planted[side].astype(float)
+                foot_link = r._link_of(f"{side}_toe")
+                level = heading_rotation(poses.rotations[:, foot_link]) @ r.rest_frames[f"{side}_foot"]
+                target = np.where(planted[side][:, None], anchors[side], 0.0)
+                rows = [row for part in leg_parts[side] for row in self._rows(part, joints, fixed, q, poses)]
+                for goal, targets in ((position, target), (orientation, level)):
+                    jacobian, error, weight = goal.rows_frames(r.marks, poses, joints, targets)
+                    rows.append((jacobian, error, weight * mask))
+                block = slice(start, start + len(joints))
+                hessian[:, block, block], gradient[:, block] = normal_equations(rows)
+                start += len(joints)
+            step = program.step(hessian, gradient, q[:, program.joints])
+            q[:, program.joints] += step
+            if float(np.max(np.abs(step))) < r.options.tolerance:
+                break
+
+
+def _take(fixed: dict, index: np.ndarray) -> dict:
+    return {key: value[index] for key, value in fixed.items()}
+
+
+def retarget_clip(
+    retargeter: Retargeter, src: dict, src_frames: dict, contacts: dict, ratio: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Joint positions (T, n), root rotations (T, 3, 3) and root positions
+    (T, 3) of a whole clip.
+
+    Coarse to fine: the programs first converge on every `coarse_stride`-th
+    frame from the standing pose; the joint paths interpolated from them
+    start a few relinearisations over all frames; then the legs' program
+    plants the feet.
+    """
+    r, options = retargeter, retargeter.options
+    frames = len(next(iter(src.values())))
+    q = np.tile(r.embodiment.standing_pose, (frames, 1))
+    base, rotations, positions = r.root_path(src, src_frames, ratio)
+    if base is not None:
+        q[:, r.base] = base
+    solver = ClipSolver(r, frames)
+    fixed = solver.source_targets(src, src_frames)
+    stride = options.coarse_stride
+    if stride > 1 and frames >= 4 * stride:
+        coarse = np.unique(np.r_[np.arange(0, frames, stride), frames - 1])
+        q_coarse = q[coarse]
+        ClipSolver(r, len(coarse)).solve_parts(
+            q_coarse, rotations[coarse], positions[coarse], _take(fixed, coarse), options.clip_iterations
+        )
+        everywhere = np.arange(frames)
+        for j in {j for program in solver.programs.values() for j in program.joints}:
+            q[:, j] = np.interp(everywhere, coarse, q_coarse[:, j])
+        solver.solve_parts(q, rotations, positions, fixed, options.fine_iterations)
+    else:
+        solver.solve_parts(q, rotations, positions, fixed, options.clip_iterations)
+    if r.legged:
+        positions = solver.plant_feet(q, rotations, positions, contacts, fixed)
+    np.clip(q, r.embodiment.position_lower, r.embodiment.position_upper, out=q)
+    return q, rotations, positions
