@@ -48,7 +48,7 @@ class ClipProgram:
     bindings to update.
     """
 
-    BLOCK = 8
+    BLOCK = 4
 
     def __init__(
         self,
@@ -187,7 +187,7 @@ class ClipSolver:
                         continue
                     kind = key if isinstance(key, str) else key[0]
                     if kind == "dir":
-                        out[key] = _unit(src[key[2]] - src[key[1]])
+                        out[key] = self.r.calibrated(key, _unit(src[key[2]] - src[key[1]]), src, src_frames)
                     elif kind == "bend":
                         a, b, c = (src[n] for n in key[1:])
                         out[key] = np.cross(_unit(b - a), _unit(c - b))

@@ -15,7 +15,8 @@ from hotu_drake.motion.human import body_height, landmarks_of
 from hotu_drake.motion.udh_skeleton import points_on_clip
 from hotu_drake.retarget import frames
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
-from hotu_drake.retarget.retargeter import foot_contacts_of
+from hotu_drake.retarget.neutral import calibrate
+from hotu_drake.retarget.retargeter import Retargeter, foot_contacts_of
 from hotu_drake.retarget.tree import Tree
 from hotu_drake.rotations import finite_difference, heading_rotation, quat_to_matrix, rotation_log
 
@@ -29,6 +30,8 @@ PART_SEGMENTS = {
     "knee": ("knee", "ankle"),
     "ankle": ("ankle", "toe"),
 }
+# The direction error as measured, and relative to the robot's neutral pose (`neutral`).
+DIRECTION_FIGURES = ("part_direction_error_deg", "part_direction_error_neutral_deg")
 # Key bodies and the landmark they are measured from (hands from the chest,
 # feet from the pelvis), so a wheeled base or a short torso is not penalised twice.
 KEY_BODIES = {"left_wrist": "chest", "right_wrist": "chest", "left_ankle": "pelvis", "right_ankle": "pelvis"}
@@ -75,17 +78,24 @@ def report(source: MotionClip, result: MotionClip, emb: embodiments.Embodiment, 
             f_dst = np.swapaxes(h_dst, -1, -2) @ frame_of(dst)
             e = np.degrees(np.linalg.norm(rotation_log(np.swapaxes(f_src, -1, -2) @ f_dst), axis=-1))
             out["part_direction_error_deg"][part] = {"mean": round(float(e.mean()), 2), "max": round(float(e.max()), 2)}
+    neutral = Retargeter(emb, set(src)).calibration if emb.name != "udh" else {}
+    body_frames = {"pelvis": frames.pelvis_frame(src) if "left_hip" in src else None, "chest": frames.chest_frame(src)}
+    out["part_direction_error_neutral_deg"] = {}
     for part, (start, end) in PART_SEGMENTS.items():
-        errors = []
+        errors, from_neutral = [], []
         for side in ("left_", "right_"):
             a, b = side + start, side + end
             if {a, b} <= set(src) and {a, b} <= set(dst) and emb.part_dof[part] > 0:
                 d_src = np.einsum("tji,tj->ti", h_src, src[b] - src[a])
                 d_dst = np.einsum("tji,tj->ti", h_dst, dst[b] - dst[a])
                 errors.append(_angles(d_src, d_dst))
+                # The same, with the source direction turned as the robot's neutral pose holds it.
+                turned = calibrate(neutral, ("dir", a, b), src[b] - src[a], src, body_frames)
+                from_neutral.append(_angles(np.einsum("tji,tj->ti", h_src, turned), d_dst))
         if errors:
-            e = np.concatenate(errors)
-            out["part_direction_error_deg"][part] = {"mean": round(float(e.mean()), 2), "max": round(float(e.max()), 2)}
+            for key, values in zip(DIRECTION_FIGURES, (errors, from_neutral)):
+                e = np.concatenate(values)
+                out[key][part] = {"mean": round(float(e.mean()), 2), "max": round(float(e.max()), 2)}
     finger_errors = []
     for side in ("left", "right"):
         for finger in FINGERS:

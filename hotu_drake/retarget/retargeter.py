@@ -27,6 +27,7 @@ from hotu_drake.objects import scale_object_poses
 from hotu_drake.retarget import frames
 from hotu_drake.retarget.clip_programs import retarget_clip
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
+from hotu_drake.retarget.neutral import calibrate, neutral_calibration
 from hotu_drake.retarget.part_ik import PartProblem
 from hotu_drake.retarget.targets import BendPlane, Coupling, Direction, Landmarks, Orientation, Position
 from hotu_drake.retarget.tree import Tree, cross, rotation_vector
@@ -53,6 +54,8 @@ class RetargetOptions:
     regularization: float = 1e-3
     smoothness: float = 1e-2
     lock_feet: bool = True
+    # Match limb directions relative to the embodiment's neutral pose (`neutral_calibration`).
+    calibrate: bool = True
 
 
 @dataclass
@@ -115,6 +118,9 @@ class Retargeter:
         fingers = set(embodiment.finger_joints)
         body = [i for i, n in enumerate(self.tree.joint_names) if n not in fingers]
         self._body_groups = self.tree.depth_groups(body)
+        self.calibration: dict = {}
+        if self.options.calibrate and embodiment.name != "udh":
+            self.calibration = neutral_calibration(self, set(source_landmarks))
 
     # --- set-up -------------------------------------------------------------------
 
@@ -243,6 +249,11 @@ class Retargeter:
                 locks[side] = (self._problem(f"{side}_leg_lock", joints), Position(f"{side}_ankle", 10.0), orientation)
         return locks
 
+    def calibrated(self, key, directions: np.ndarray, src: dict, src_frames: dict) -> np.ndarray:
+        """Source directions (T, 3) of a direction target as this embodiment's
+        neutral pose holds them (`neutral.calibrate`)."""
+        return calibrate(self.calibration, key, directions, src, src_frames)
+
     def root_path(
         self, src: dict[str, np.ndarray], src_frames: dict[str, np.ndarray], ratio: float
     ) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
@@ -271,7 +282,9 @@ class Retargeter:
         kind = key if isinstance(key, str) else key[0]
         if kind == "dir":
             v = src[key[2]][t] - src[key[1]][t]
-            return v / max(np.linalg.norm(v), 1e-9)
+            v = v / max(np.linalg.norm(v), 1e-9)
+            here = {n: f[t : t + 1] for n, f in src.items()}
+            return self.calibrated(key, v[None], here, {n: f[t : t + 1] for n, f in src_frames.items()})[0]
         if kind == "bend":
             a, b, c = (src[n][t] for n in key[1:])
             u1, u2 = b - a, c - b

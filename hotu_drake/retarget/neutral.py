@@ -1,0 +1,130 @@
+"""Per-embodiment neutral-pose calibration of the limb direction targets.
+
+A robot built with angled shins or offset shoulders cannot hold a limb the
+way a human standing straight does; matching raw directions makes its
+joints fight that geometry all clip long. Its neutral pose is the
+(uncalibrated) retargeting of the UDH at rest, a human standing straight;
+there each limb segment sits at a small rotation C from the human's,
+measured in the segment's parent frame (the body frame, pelvis or chest,
+turned by the parent segment's swing away from rest). The retargeting
+matches a source direction d as S C S' d (S that parent frame), so that a
+human standing straight maps to the robot's neutral pose; where the joints
+can match the human, C is the identity and nothing changes. A hinge (an
+elbow or knee of one joint) bends in its own plane by itself, so only the
+part of C out of that plane (a carrying angle, knock-kneed shins) counts:
+an offset within it is a bend the hinge matches anyway.
+
+Calibrated segments: upper arms, thighs, shins and feet (`CALIBRATED`).
+Forearms are left raw: on CURI's Panda arms the wrist landmark moves with
+the wrist joints, so the forearm's neutral offset is not a fixed property of
+the arm, and calibrating it raised CURI's elbow error (8.7 to 12.5 degrees
+on CMU 01_01).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from hotu_drake.retarget.retargeter import Retargeter
+
+NEUTRAL_SWEEPS = 40  # passes over the parts that find an embodiment's neutral pose
+LEG = ("hip", "knee", "ankle")
+CALIBRATED = ("shoulder", "hip", "knee", "ankle")  # by the segment's start
+# The segment a limb segment hangs from: its start landmark is that segment's end.
+PARENT_SEGMENT = {"elbow": "shoulder", "wrist": "elbow", "knee": "hip", "ankle": "knee"}
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-9)
+
+
+def rotations_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The smallest rotations (..., 3, 3) that turn unit vectors a onto b."""
+    a, b = np.broadcast_arrays(a, b)
+    axis = np.cross(a, b)
+    sin = np.linalg.norm(axis, axis=-1)
+    cos = np.sum(a * b, axis=-1)
+    k = axis / np.maximum(sin, 1e-12)[..., None]
+    skew = np.zeros(a.shape + (3,))
+    skew[..., 0, 1], skew[..., 0, 2], skew[..., 1, 2] = -k[..., 2], k[..., 1], -k[..., 0]
+    skew -= np.swapaxes(skew, -1, -2)
+    # (Directions a half turn apart do not occur between two standing bodies.)
+    return np.eye(3) + sin[..., None, None] * skew + (1.0 - cos)[..., None, None] * skew @ skew
+
+
+def _segment(key: tuple) -> tuple[str, str]:
+    """('dir', 'left_knee', 'left_ankle') -> ('left_', 'knee')."""
+    side, joint = key[1].rsplit("_", 1)
+    return side + "_", joint
+
+
+def neutral_calibration(retargeter: Retargeter, source_landmarks: set[str]) -> dict:
+    """{direction target key: (body frame, C, parent key or None, parent's rest
+    direction in the body frame)} of one embodiment; empty for a source
+    without a torso."""
+    from hotu_drake import embodiment as embodiments
+    from hotu_drake.embodiment.landmarks import landmark_placements
+    from hotu_drake.retarget.retargeter import _source_frames
+    from hotu_drake.retarget.targets import Landmarks
+    from hotu_drake.retarget.tree import Tree, axis_angles, rotation_vector
+
+    r = retargeter
+    udh = embodiments.load("udh", "full")
+    udh_tree = Tree(udh.spec)
+    rest = Landmarks(udh_tree, landmark_placements(udh.spec)).all_positions(
+        udh_tree.forward(np.zeros(len(udh_tree.joint_names)))
+    )
+    src = {name: point[None] for name, point in rest.items() if name in source_landmarks}
+    if not {"pelvis", "chest", "left_shoulder", "right_shoulder"} <= set(src):
+        return {}
+    src_frames = _source_frames(src)
+    q = r.embodiment.standing_pose.copy()
+    base, rotations, positions = r.root_path(src, src_frames, r.scale_ratio(src))
+    if base is not None:
+        q[r.base] = base[0]
+    r._solve_parts(q, q.copy(), rotations[0], positions[0], 0, src, src_frames, NEUTRAL_SWEEPS)
+    pose = r.tree.forward(q, rotations[0], positions[0])
+    hinges = {part.name: part.problem.joints[0] for part in r.parts if len(part.problem.joints) == 1}
+    keys = [key for part in r.parts for _, key in part.targets if isinstance(key, tuple) and key[0] == "dir"]
+    keys = [key for key in keys if _segment(key)[1] in CALIBRATED]
+    calibration = {}
+    for key in keys:
+        side, joint = _segment(key)
+        frame = "pelvis" if joint in LEG else "chest"
+        body = src_frames[frame][0]
+        human = body.T @ _unit(src[key[2]][0] - src[key[1]][0])
+        robot = body.T @ _unit(r.marks.position(pose, key[2]) - r.marks.position(pose, key[1]))
+        turn = rotation_vector(rotations_between(human, robot))
+        if key[1] in hinges:  # keep what lies out of the hinge's plane
+            axis = body.T @ pose.joint_axes[hinges[key[1]]]
+            turn = turn - np.dot(turn, axis) * axis
+        parent = ("dir", side + PARENT_SEGMENT[joint], key[1]) if joint in PARENT_SEGMENT else None
+        parent_rest = None
+        if parent is not None and parent in keys:
+            parent_rest = body.T @ _unit(src[parent[2]][0] - src[parent[1]][0])
+        else:
+            parent = None
+        calibration[key] = (
+            frame,
+            axis_angles(turn[None] / max(np.linalg.norm(turn), 1e-12), np.linalg.norm(turn)[None])[0],
+            parent,
+            parent_rest,
+        )
+    return calibration
+
+
+def calibrate(calibration: dict, key, directions: np.ndarray, src: dict, src_frames: dict) -> np.ndarray:
+    """Source directions (T, 3) of direction target `key`, turned as the
+    embodiment's neutral pose holds them (unchanged without a calibration)."""
+    if key not in calibration:
+        return directions
+    frame, turn, parent, parent_rest = calibration[key]
+    body = src_frames[frame]  # (T, 3, 3)
+    if parent is not None:  # the parent segment's swing from rest, in the body frame
+        swing = rotations_between(parent_rest, np.einsum("tji,tj->ti", body, _unit(src[parent[2]] - src[parent[1]])))
+        body = body @ swing
+    local = np.einsum("tji,tj->ti", body, directions)
+    return np.einsum("tij,tj->ti", body, local @ turn.T)
