@@ -75,34 +75,51 @@ class ClipProgram:
             end = min(start + self.BLOCK + 1, frames)
             block = self.dq[start:end].reshape(-1)
             self._costs.append(self.program.AddQuadraticCost(np.eye(len(block)), np.zeros(len(block)), block, True))
+        self._linked_layout = self._layout(len(self._linked), self.BLOCK, True)
+        self._tail_layout = self._layout(1, frames - self._tail, False)
         self._bounds = self.program.AddBoundingBoxConstraint(
             -np.ones(frames * k), np.ones(frames * k), self.dq.reshape(-1)
         )
         self._solver = OsqpSolver()
         self._options = SolverOptions()
         # A relinearised step needs no more accuracy than this.
-        for option, value in (("verbose", 0), ("polishing", 0), ("eps_abs", 1e-3), ("eps_rel", 1e-3)):
+        settings = {"verbose": 0, "polishing": 0, "eps_abs": 1e-3, "eps_rel": 1e-3, "check_termination": 10}
+        for option, value in settings.items():
             self._options.SetOption(self._solver.solver_id(), option, value)
 
-    def _blocks(self, starts: np.ndarray, own: int, linked: bool, hessian, gradient, change):
+    def _layout(self, count: int, own: int, linked: bool) -> tuple[np.ndarray, np.ndarray]:
+        """Hessians (count, size, K, size, K) of `count` blocks of `own` frames
+        (with or without the next frame) holding the smoothness coupling,
+        which never changes, and the diagonal it adds to each frame (size, K, K)."""
+        k, s = len(self.joints), self.smoothness
+        size = own + linked
+        matrices = np.zeros((count, size, k, size, k))
+        diagonal = np.zeros((size, k, k))
+        for i in range(own if linked else own - 1):  # frames i and i + 1: s |dq_i+1 - dq_i + c_i|^2
+            diagonal[i] += s * np.eye(k)
+            diagonal[i + 1] += s * np.eye(k)
+            matrices[:, i, :, i + 1, :] = -2.0 * s * np.eye(k)
+            matrices[:, i + 1, :, i, :] = -2.0 * s * np.eye(k)
+        return matrices, diagonal
+
+    def _blocks(self, layout, starts: np.ndarray, own: int, linked: bool, hessian, gradient, change):
         """Costs (x' Q x / 2 + b' x) of blocks of `own` frames from `starts`,
-        with (`linked`) or without the next frame."""
+        with (`linked`) or without the next frame; only the diagonal of the
+        preallocated Hessians is written."""
+        matrices, diagonal = layout
         k, s = hessian.shape[-1], self.smoothness
         size = own + linked
-        q5 = np.zeros((len(starts), size, k, size, k))
-        b3 = np.zeros((len(starts), size, k))
-        eye = s * np.eye(k)
-        for i in range(own):
-            q5[:, i, :, i, :] += hessian[starts + i]
-            b3[:, i] += gradient[starts + i]
-        for i in range(own if linked else own - 1):  # frames i and i + 1: s |dq_i+1 - dq_i + c_i|^2
-            q5[:, i, :, i, :] += eye
-            q5[:, i + 1, :, i + 1, :] += eye
-            q5[:, i, :, i + 1, :] -= eye
-            q5[:, i + 1, :, i, :] -= eye
-            b3[:, i] -= s * change[starts + i]
-            b3[:, i + 1] += s * change[starts + i]
-        return 2.0 * q5.reshape(len(starts), size * k, size * k), 2.0 * b3.reshape(len(starts), size * k)
+        vectors = np.zeros((len(starts), size, k))
+        for i in range(size):
+            if i < own:
+                matrices[:, i, :, i, :] = 2.0 * (hessian[starts + i] + diagonal[i])
+                vectors[:, i] += gradient[starts + i]
+            else:
+                matrices[:, i, :, i, :] = 2.0 * diagonal[i]
+        for i in range(own if linked else own - 1):
+            vectors[:, i] -= s * change[starts + i]
+            vectors[:, i + 1] += s * change[starts + i]
+        return matrices.reshape(len(starts), size * k, size * k), 2.0 * vectors.reshape(len(starts), size * k)
 
     def step(self, hessian: np.ndarray, gradient: np.ndarray, q: np.ndarray) -> np.ndarray:
         """The step (T, K) that minimises the frames' costs dq' H_t dq + 2 g_t' dq
@@ -113,9 +130,9 @@ class ClipProgram:
         change = q[1:] - q[:-1]  # the smoothness term's constant: q_t+1 - q_t
         blocks = []
         if len(self._linked):
-            blocks += zip(*self._blocks(self._linked, self.BLOCK, True, hessian, gradient, change))
+            blocks += zip(*self._blocks(self._linked_layout, self._linked, self.BLOCK, True, hessian, gradient, change))
         tail = np.array([self._tail])
-        blocks += zip(*self._blocks(tail, frames - self._tail, False, hessian, gradient, change))
+        blocks += zip(*self._blocks(self._tail_layout, tail, frames - self._tail, False, hessian, gradient, change))
         for cost, (matrix, vector) in zip(self._costs, blocks):
             cost.evaluator().UpdateCoefficients(matrix, vector, 0.0, True)
         low = np.minimum(np.maximum(self.lower - q, -TRUST_REGION), 0.0)

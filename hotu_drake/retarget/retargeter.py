@@ -46,7 +46,7 @@ class RetargetOptions:
     clip_iterations: int = 8  # whole clip: at most this many relinearisations of all levels on the coarse frames
     coarse_stride: int = 8  # every this many frames of the clip (1: no coarse pass)
     fine_iterations: int = 2  # then over all frames
-    lock_iterations: int = 3  # and of the legs' program that plants the feet
+    lock_iterations: int = 2  # and of the legs' program that plants the feet
     sweeps: int = 2  # at most this many passes over all parts per frame (30 fps)
     high_rate_sweeps: int = 1  # the same at 60 fps or more, where frames are close
     tolerance: float = 2e-3  # stop the passes once no joint moves more (rad)
