@@ -2,7 +2,7 @@
 
 python -m hotu_drake.bench standing [--robot NAME|all] [--hands full|none|both]
                                     [--seconds S] [--time-step DT] [--no-self-collision]
-python -m hotu_drake.bench retarget [--input FILE] [--hands full|none|both] [--seconds S] [--peer mink]
+python -m hotu_drake.bench retarget [--input FILE] [--hands full|none|both] [--seconds S] [--peer mink] [--per-frame]
 python -m hotu_drake.bench diagram  [--robot NAME|all] [--hands full|none|both] [--seconds S] [--markdown]
 python -m hotu_drake.bench env      [--robot NAME] [--hands full|none] [--envs N] [--seconds S]
                                     [--motions M ...] [--backend local|ray] [--fidelity] [--peer mujoco] [--json]
@@ -58,6 +58,21 @@ def _retarget(args) -> int:
         "source": {"clip": source.source, "frames": source.num_frames, "fps": source.fps},
         "results": results,
     }
+    if args.per_frame:  # today's streaming solve, one frame at a time, in the same run
+        from hotu_drake.retarget.retargeter import RetargetOptions
+
+        per_frame = RetargetOptions(whole_clip=False, calibrate=False)
+        report["per_frame"], report["speedup_over_per_frame"] = [], {}
+        for hands in variants:
+            for row in retarget_throughput(source, hands, options=per_frame):
+                print(json.dumps({"per_frame": True, **row}), file=sys.stderr, flush=True)
+                report["per_frame"].append(row)
+        ours = end_to_end_frames_per_second(results)
+        for row in report["per_frame"]:
+            mine = ours[row["robot"], row["hands"]]
+            report["speedup_over_per_frame"].setdefault(row["robot"], {})[row["hands"]] = round(
+                mine / row["end_to_end_frames_per_second"], 3
+            )
     if peer:  # the same clip straight onto each robot; ours goes human -> UDH -> robot
         ours = end_to_end_frames_per_second(results)
         report["peer"], report["speedup"] = [], {}
@@ -258,6 +273,9 @@ def main(argv: list[str] | None = None) -> int:
     retarget.add_argument("--seconds", type=positive_float, help="use only the first S seconds")
     retarget.add_argument(
         "--peer", choices=["mink"], help="also run mink's differential IK, set up as GMR does (the mink extra)"
+    )
+    retarget.add_argument(
+        "--per-frame", action="store_true", help="also time the per-frame solve (the stream's), uncalibrated, as before"
     )
     retarget.add_argument("--json", action="store_true", help="accepted for symmetry; output is always JSON")
     diagram = sub.add_parser("diagram", help="real-time factors of the scenario diagrams and cost per added system")

@@ -6,6 +6,7 @@ from hotu_drake import embodiment
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.retarget.metrics import report
 from hotu_drake.retarget.pipeline import ROBOTS, to_robot, to_udh
+from hotu_drake.retarget.retargeter import RetargetOptions
 
 
 def source_clip(path: str | None, seconds: float | None) -> MotionClip:
@@ -23,13 +24,26 @@ def source_clip(path: str | None, seconds: float | None) -> MotionClip:
     return clip
 
 
-def retarget_throughput(source: MotionClip, hands: str, robots: tuple[str, ...] = ("udh", *ROBOTS)) -> list[dict]:
-    """Frames per second of each stage (human -> UDH, then UDH -> each robot)."""
-    udh = to_udh(source, hands)
+def _direction_means(figures: dict, key: str) -> dict[str, float]:
+    return {part: error["mean"] for part, error in figures.get(key, {}).items()}
+
+
+def retarget_throughput(
+    source: MotionClip,
+    hands: str,
+    robots: tuple[str, ...] = ("udh", *ROBOTS),
+    options: RetargetOptions | None = None,
+) -> list[dict]:
+    """Frames per second of each stage (human -> UDH, then UDH -> each robot),
+    after a warm-up on the clip's first quarter second, with the report's
+    quality figures; `options` picks the solve (default: whole clip)."""
+    warm_up = source.slice(0, min(source.num_frames, int(0.25 * source.fps) + 2))
+    to_robot(to_udh(warm_up, hands, options).clip, robots[-1], hands, options)
+    udh = to_udh(source, hands, options)
     stages = {"udh": udh}
     for robot in robots:
         if robot != "udh":
-            stages[robot] = to_robot(udh.clip, robot, hands)
+            stages[robot] = to_robot(udh.clip, robot, hands, options)
     rows = []
     for robot, stage in stages.items():
         figures = report(source, stage.clip, embodiment.load(robot, hands), stage.seconds)
@@ -44,8 +58,12 @@ def retarget_throughput(source: MotionClip, hands: str, robots: tuple[str, ...] 
                 "foot_skate_m_per_s": figures["foot_skate_m_per_s"],
                 "foot_penetration_m": figures["foot_penetration_m"],
                 "key_body_error": figures.get("key_body_error"),
+                "direction_error_deg": _direction_means(figures, "part_direction_error_deg"),
+                "direction_error_from_neutral_deg": _direction_means(figures, "part_direction_error_neutral_deg"),
             }
         )
+    for row, fps in zip(rows, end_to_end_frames_per_second(rows).values()):
+        row["end_to_end_frames_per_second"] = fps
     return rows
 
 

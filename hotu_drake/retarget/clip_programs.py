@@ -24,6 +24,7 @@ level, over each contact phase.
 
 from __future__ import annotations
 
+import itertools
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -44,11 +45,13 @@ class ClipProgram:
     Variables: dq (T, K). The costs come in blocks of `BLOCK` frames: each
     block's quadratic cost holds its frames' targets and their smoothness
     coupling to the next frame (the first of the next block), so the
-    program's Hessian is block tridiagonal in time and Drake keeps few
-    bindings to update.
+    program's Hessian is block tridiagonal in time. Joints that no target
+    couples (two parts, two fingers) can be kept in separate `groups` of
+    columns, each with its own costs, so the dense blocks stay small.
     """
 
     BLOCK = 4
+    GROUP = 16  # independent groups of columns are merged up to this many
 
     def __init__(
         self,
@@ -59,6 +62,7 @@ class ClipProgram:
         frames: int,
         regularization: float,
         smoothness: float,
+        groups: list[int] | None = None,
     ):
         self.name, self.joints, self.frames = name, list(joints), frames
         self.lower, self.upper = np.asarray(lower, float), np.asarray(upper, float)
@@ -70,13 +74,17 @@ class ClipProgram:
         starts = np.arange(0, frames, self.BLOCK)
         self._linked = starts[starts + self.BLOCK < frames]
         self._tail = int(self._linked[-1] + self.BLOCK) if len(self._linked) else 0
-        self._costs = []
-        for start in (*self._linked, self._tail):
-            end = min(start + self.BLOCK + 1, frames)
-            block = self.dq[start:end].reshape(-1)
-            self._costs.append(self.program.AddQuadraticCost(np.eye(len(block)), np.zeros(len(block)), block, True))
-        self._linked_layout = self._layout(len(self._linked), self.BLOCK, True)
-        self._tail_layout = self._layout(1, frames - self._tail, False)
+        self._groups = []
+        for columns in self._merge(groups or [k]):
+            costs = []
+            for start in (*self._linked, self._tail):
+                end = min(start + self.BLOCK + 1, frames)
+                block = self.dq[start:end, columns].reshape(-1)
+                costs.append(self.program.AddQuadraticCost(np.eye(len(block)), np.zeros(len(block)), block, True))
+            width = columns.stop - columns.start
+            linked = self._layout(len(self._linked), self.BLOCK, True, width)
+            tail = self._layout(1, frames - self._tail, False, width)
+            self._groups.append((columns, costs, linked, tail))
         self._bounds = self.program.AddBoundingBoxConstraint(
             -np.ones(frames * k), np.ones(frames * k), self.dq.reshape(-1)
         )
@@ -87,11 +95,22 @@ class ClipProgram:
         for option, value in settings.items():
             self._options.SetOption(self._solver.solver_id(), option, value)
 
-    def _layout(self, count: int, own: int, linked: bool) -> tuple[np.ndarray, np.ndarray]:
-        """Hessians (count, size, K, size, K) of `count` blocks of `own` frames
+    def _merge(self, sizes: list[int]) -> list[slice]:
+        """Consecutive groups of columns (their `sizes`) merged while they fit in `GROUP`."""
+        out, start, width = [], 0, 0
+        for size in sizes:
+            if width and width + size > self.GROUP:
+                out.append(slice(start, start + width))
+                start, width = start + width, 0
+            width += size
+        out.append(slice(start, start + width))
+        return out
+
+    def _layout(self, count: int, own: int, linked: bool, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Hessians (count, size, k, size, k) of `count` blocks of `own` frames
         (with or without the next frame) holding the smoothness coupling,
-        which never changes, and the diagonal it adds to each frame (size, K, K)."""
-        k, s = len(self.joints), self.smoothness
+        which never changes, and the diagonal it adds to each frame (size, k, k)."""
+        s = self.smoothness
         size = own + linked
         matrices = np.zeros((count, size, k, size, k))
         diagonal = np.zeros((size, k, k))
@@ -126,15 +145,18 @@ class ClipProgram:
         (`hessian` (T, K, K), `gradient` (T, K)), plus the regularisation and
         the smoothness of q + dq; `q` (T, K) is the current configuration."""
         frames, k = q.shape
-        hessian = hessian + self.regularization * np.eye(k)
         change = q[1:] - q[:-1]  # the smoothness term's constant: q_t+1 - q_t
-        blocks = []
-        if len(self._linked):
-            blocks += zip(*self._blocks(self._linked_layout, self._linked, self.BLOCK, True, hessian, gradient, change))
         tail = np.array([self._tail])
-        blocks += zip(*self._blocks(self._tail_layout, tail, frames - self._tail, False, hessian, gradient, change))
-        for cost, (matrix, vector) in zip(self._costs, blocks):
-            cost.evaluator().UpdateCoefficients(matrix, vector, 0.0, True)
+        for columns, costs, linked, last in self._groups:
+            width = columns.stop - columns.start
+            own = hessian[:, columns, columns] + self.regularization * np.eye(width)
+            terms = (own, gradient[:, columns], change[:, columns])
+            blocks = (
+                list(zip(*self._blocks(linked, self._linked, self.BLOCK, True, *terms))) if len(self._linked) else []
+            )
+            blocks += zip(*self._blocks(last, tail, frames - self._tail, False, *terms))
+            for cost, (matrix, vector) in zip(costs, blocks):
+                cost.evaluator().UpdateCoefficients(matrix, vector, 0.0, True)
         low = np.minimum(np.maximum(self.lower - q, -TRUST_REGION), 0.0)
         high = np.maximum(np.minimum(self.upper - q, TRUST_REGION), 0.0)
         self._bounds.evaluator().set_bounds(low.reshape(-1), high.reshape(-1))
@@ -171,16 +193,31 @@ class ClipSolver:
         self.levels: dict[int, list] = {}
         for part in r.parts:
             self.levels.setdefault(part.level, []).append(part)
-        self.programs = {}
-        for level, parts in self.levels.items():
-            joints = [j for part in parts for j in part.problem.joints]
-            self.programs[level] = self._program(f"level{level}", joints, frames)
+        self._programs: dict[int, ClipProgram] = {}
         self.lock = None
         if r.legged and r._lock and options.lock_feet:
             joints = [j for side in SIDES if side in r._lock for j in r._lock[side][0].joints]
-            self.lock = self._program("legs", joints, frames)
+            groups = [len(r._lock[side][0].joints) for side in SIDES if side in r._lock]
+            self.lock = self._program("legs", joints, frames, groups)
 
-    def _program(self, name: str, joints: list[int], frames: int) -> ClipProgram:
+    def program(self, level: int) -> ClipProgram:
+        """The program of one level, built when first needed."""
+        if level not in self._programs:
+            parts = self.levels[level]
+            joints = [j for part in parts for j in part.problem.joints]
+            groups = [size for part in parts for size in self._independent(part)]
+            self._programs[level] = self._program(f"level{level}", joints, self.frames, groups)
+        return self._programs[level]
+
+    def _independent(self, part) -> list[int]:
+        """Sizes of the runs of a part's joints that no target couples: one
+        run per finger in a hand's part, else the whole part."""
+        if part.level < 3:
+            return [len(part.problem.joints)]
+        names = [self.r.tree.joint_names[j].rsplit("_", 1)[0] for j in part.problem.joints]
+        return [len(list(run)) for _, run in itertools.groupby(names)]
+
+    def _program(self, name: str, joints: list[int], frames: int, groups: list[int]) -> ClipProgram:
         emb, options = self.r.embodiment, self.r.options
         return ClipProgram(
             name,
@@ -190,6 +227,7 @@ class ClipSolver:
             frames,
             options.regularization,
             options.smoothness,
+            groups,
         )
 
     # --- the parts ------------------------------------------------------------------
@@ -225,17 +263,34 @@ class ClipSolver:
         return fixed[key]
 
     def solve_parts(
-        self, q: np.ndarray, rotations: np.ndarray, positions: np.ndarray, fixed: dict, iterations: int
-    ) -> None:
+        self,
+        q: np.ndarray,
+        rotations: np.ndarray,
+        positions: np.ndarray,
+        fixed: dict,
+        iterations: int,
+        moved: dict[int, float] | None = None,
+    ) -> dict[int, float]:
         """Relinearise and solve every level in turn (at most `iterations`
-        times, until no joint moves more than the tolerance), in place on q (T, n)."""
+        times, until no joint moves more than the tolerance), in place on q
+        (T, n); returns each level's last largest step.
+
+        A level that has settled (by its last step, or `moved` from a coarser
+        pass) is skipped while the levels it hangs from have too; the
+        fingers' targets are in the hand's own frame, so they wait for
+        nothing but themselves."""
         r = self.r
+        moved = {level: (moved or {}).get(level, np.inf) for level in self.levels}
         for _ in range(iterations):
-            largest = 0.0
             for level in sorted(self.levels):
+                settled = moved[level] < r.options.tolerance
+                below = [moved[other] for other in self.levels if other < level and level < 3]
+                if settled and all(m < r.options.tolerance for m in below):
+                    moved[level] = 0.0
+                    continue
                 groups = None if level >= 3 else r._body_groups
                 poses = r.tree.forward_frames(q, rotations, positions, groups)
-                program = self.programs[level]
+                program = self.program(level)
                 k = len(program.joints)
                 hessian = np.zeros((self.frames, k, k))
                 gradient = np.zeros((self.frames, k))
@@ -249,9 +304,10 @@ class ClipSolver:
                     start += len(joints)
                 step = program.step(hessian, gradient, q[:, program.joints])
                 q[:, program.joints] += step
-                largest = max(largest, float(np.max(np.abs(step))))
-            if largest < r.options.tolerance:
+                moved[level] = float(np.max(np.abs(step)))
+            if max(moved.values(), default=0.0) < r.options.tolerance:
                 break
+        return moved
 
     def _rows(self, part, joints: list[int], fixed: dict, q: np.ndarray, poses: Pose) -> list:
         """A part's target rows over `joints` for every frame."""
@@ -375,13 +431,14 @@ def retarget_clip(
     if stride > 1 and frames >= 4 * stride:
         coarse = np.unique(np.r_[np.arange(0, frames, stride), frames - 1])
         q_coarse = q[coarse]
-        ClipSolver(r, len(coarse)).solve_parts(
+        moved = ClipSolver(r, len(coarse)).solve_parts(
             q_coarse, rotations[coarse], positions[coarse], _take(fixed, coarse), options.clip_iterations
         )
         everywhere = np.arange(frames)
-        for j in {j for program in solver.programs.values() for j in program.joints}:
+        for j in {j for part in r.parts for j in part.problem.joints}:
             q[:, j] = np.interp(everywhere, coarse, q_coarse[:, j])
-        solver.solve_parts(q, rotations, positions, fixed, options.fine_iterations)
+        # Only the fingers may stay as interpolated: their coarse solve settled and waits for no other level.
+        solver.solve_parts(q, rotations, positions, fixed, options.fine_iterations, {3: moved.get(3, np.inf)})
     else:
         solver.solve_parts(q, rotations, positions, fixed, options.clip_iterations)
     if r.legged:

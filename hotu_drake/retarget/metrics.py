@@ -16,7 +16,7 @@ from hotu_drake.motion.udh_skeleton import points_on_clip
 from hotu_drake.retarget import frames
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
 from hotu_drake.retarget.neutral import calibrate
-from hotu_drake.retarget.retargeter import Retargeter, foot_contacts_of
+from hotu_drake.retarget.retargeter import Retargeter, _source_frames, foot_contacts_of, whole_finger_points
 from hotu_drake.retarget.tree import Tree
 from hotu_drake.rotations import finite_difference, heading_rotation, quat_to_matrix, rotation_log
 
@@ -97,14 +97,16 @@ def report(source: MotionClip, result: MotionClip, emb: embodiments.Embodiment, 
                 e = np.concatenate(values)
                 out[key][part] = {"mean": round(float(e.mean()), 2), "max": round(float(e.max()), 2)}
     finger_errors = []
+    src_hands = _source_frames(src)
     for side in ("left", "right"):
+        if f"{side}_hand" not in src_hands or not {f"{side}_index_1", f"{side}_little_1"} <= set(dst):
+            continue
         for finger in FINGERS:
             a, b = f"{side}_{finger}_1", f"{side}_{finger}_4"
-            if {a, b} <= set(src) and {a, b} <= set(dst):
-                hand_src = frames.hand_frame(src, side)
-                hand_dst = frames.hand_frame(dst, side)
-                d_src = np.einsum("tji,tj->ti", hand_src, src[b] - src[a])
-                d_dst = np.einsum("tji,tj->ti", hand_dst, dst[b] - dst[a])
+            pair = (a, b, a, b) if {a, b} <= set(src) else whole_finger_points(set(src), set(dst), side, finger)
+            if pair is not None and {pair[2], pair[3]} <= set(dst):
+                d_src = np.einsum("tji,tj->ti", src_hands[f"{side}_hand"], src[pair[1]] - src[pair[0]])
+                d_dst = np.einsum("tji,tj->ti", frames.hand_frame(dst, side), dst[pair[3]] - dst[pair[2]])
                 finger_errors.append(_angles(d_src, d_dst))
     if finger_errors:
         e = np.concatenate(finger_errors)

@@ -23,6 +23,7 @@ on CMU 01_01).
 
 from __future__ import annotations
 
+from functools import cache
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -35,6 +36,29 @@ LEG = ("hip", "knee", "ankle")
 CALIBRATED = ("shoulder", "hip", "knee", "ankle")  # by the segment's start
 # The segment a limb segment hangs from: its start landmark is that segment's end.
 PARENT_SEGMENT = {"elbow": "shoulder", "wrist": "elbow", "knee": "hip", "ankle": "knee"}
+
+
+@cache
+def _udh_rest() -> dict[str, np.ndarray]:
+    """The UDH's landmarks at rest: a human standing straight, hands open."""
+    from hotu_drake import embodiment as embodiments
+    from hotu_drake.embodiment.landmarks import landmark_placements
+    from hotu_drake.retarget.targets import Landmarks
+    from hotu_drake.retarget.tree import Tree
+
+    udh = embodiments.load("udh", "full")
+    tree = Tree(udh.spec)
+    return Landmarks(tree, landmark_placements(udh.spec)).all_positions(tree.forward(np.zeros(len(tree.joint_names))))
+
+
+@cache
+def thumb_frame_offset(side: str) -> np.ndarray:
+    """The turn from `frames.thumb_hand_frame` to `frames.hand_frame` of an
+    open hand (the UDH's at rest), so that both name the same hand frame."""
+    from hotu_drake.retarget import frames
+
+    rest = _udh_rest()
+    return frames.thumb_hand_frame(rest, side).T @ frames.hand_frame(rest, side)
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -65,19 +89,11 @@ def neutral_calibration(retargeter: Retargeter, source_landmarks: set[str]) -> d
     """{direction target key: (body frame, C, parent key or None, parent's rest
     direction in the body frame)} of one embodiment; empty for a source
     without a torso."""
-    from hotu_drake import embodiment as embodiments
-    from hotu_drake.embodiment.landmarks import landmark_placements
     from hotu_drake.retarget.retargeter import _source_frames
-    from hotu_drake.retarget.targets import Landmarks
-    from hotu_drake.retarget.tree import Tree, axis_angles, rotation_vector
+    from hotu_drake.retarget.tree import axis_angles, rotation_vector
 
     r = retargeter
-    udh = embodiments.load("udh", "full")
-    udh_tree = Tree(udh.spec)
-    rest = Landmarks(udh_tree, landmark_placements(udh.spec)).all_positions(
-        udh_tree.forward(np.zeros(len(udh_tree.joint_names)))
-    )
-    src = {name: point[None] for name, point in rest.items() if name in source_landmarks}
+    src = {name: point[None] for name, point in _udh_rest().items() if name in source_landmarks}
     if not {"pelvis", "chest", "left_shoulder", "right_shoulder"} <= set(src):
         return {}
     src_frames = _source_frames(src)

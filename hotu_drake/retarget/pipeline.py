@@ -15,7 +15,7 @@ ROBOTS: tuple[str, ...] = ("naviai", "h1", "bruce", "walker", "curi")
 def has_fingers(clip: MotionClip) -> bool:
     """Whether a human clip tracks finger landmarks (or a UDH clip has finger joints)."""
     if clip.embodiment == "human":
-        return any(f"left_{finger}_2" in clip.key_body_names for finger in FINGERS)
+        return any(f"left_{finger}_4" in clip.key_body_names for finger in FINGERS)
     return any(name.endswith("_index_0") for name in clip.joint_names)
 
 

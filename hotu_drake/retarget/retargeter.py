@@ -27,7 +27,7 @@ from hotu_drake.objects import scale_object_poses
 from hotu_drake.retarget import frames
 from hotu_drake.retarget.clip_programs import retarget_clip
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
-from hotu_drake.retarget.neutral import calibrate, neutral_calibration
+from hotu_drake.retarget.neutral import calibrate, neutral_calibration, thumb_frame_offset
 from hotu_drake.retarget.part_ik import PartProblem
 from hotu_drake.retarget.targets import BendPlane, Coupling, Direction, Landmarks, Orientation, Position
 from hotu_drake.retarget.tree import Tree, cross, rotation_vector
@@ -82,6 +82,8 @@ def _source_frames(src: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     for side in SIDES:
         if all(f"{side}_{n}" in src for n in ("wrist", "hand", "index_1", "little_1")):
             out[f"{side}_hand"] = frames.hand_frame(src, side)
+        elif all(f"{side}_{n}" in src for n in ("wrist", "hand", "thumb_4")):
+            out[f"{side}_hand"] = frames.thumb_hand_frame(src, side) @ thumb_frame_offset(side)
         if f"{side}_toe" in src:
             out[f"{side}_foot"] = frames.foot_frame(src, side, lateral)
     return out
@@ -209,6 +211,8 @@ class Retargeter:
             for finger in FINGERS:
                 joints = self._joints(f"{s}{finger}_")
                 targets = [t for t in (self._finger(both, side, finger, i) for i in (1, 2, 3)) if t is not None]
+                if not targets:  # a capture with fewer finger points: the whole finger at once
+                    targets = [t for t in (self._whole_finger(src, side, finger),) if t is not None]
                 if joints and targets:
                     start = len(finger_joints)
                     pairs = COUPLED_JOINTS.get(model, {}).get(finger, ())
@@ -238,6 +242,15 @@ class Retargeter:
         if {start, end} <= both and hand in self.rest_frames:
             return Direction(start, end, 0.5), ("finger", start, end, hand)
         return None
+
+    def _whole_finger(self, src: set[str], side: str, finger: str):
+        """One direction over a whole finger for a source without the
+        finger's middle points (`whole_finger_points`)."""
+        points = whole_finger_points(src, set(self.marks.items), side, finger)
+        if points is None or f"{side}_hand" not in self.rest_frames:
+            return None
+        source_base, source_tip, base, tip = points
+        return Direction(base, tip, 0.5), ("finger", source_base, source_tip, f"{side}_hand")
 
     def _build_leg_locks(self) -> dict[str, tuple[PartProblem, Position, Orientation]]:
         locks = {}
@@ -516,6 +529,23 @@ class RetargetStream:
         self.q_previous = q.copy()
         self.count += 1
         return q.copy(), root_rotation, root_position
+
+
+def whole_finger_points(src: set[str], robot: set[str], side: str, finger: str) -> tuple[str, str, str, str] | None:
+    """(source base, source tip, robot base, robot tip) of a whole finger, for
+    a capture with only a finger's tip (CMU's hands carry one chain for the
+    four fingers, from the knuckles, and one for the thumb, from the wrist):
+    a finger without a tip of its own follows the index finger's; the
+    robot's finger runs from its own base, the thumb from the wrist."""
+    tip = f"{side}_{finger}_4"
+    source_tip = tip if tip in src else (f"{side}_index_4" if finger != "thumb" else None)
+    if finger == "thumb":
+        source_base = base = f"{side}_wrist"
+    else:
+        source_base, base = f"{side}_hand", f"{side}_{finger}_1"
+    if source_tip not in src or source_base not in src or not {base, tip} <= robot:
+        return None
+    return source_base, source_tip, base, tip
 
 
 def foot_contacts_of(clip: MotionClip | None, frames_count: int) -> dict[str, np.ndarray]:
