@@ -55,3 +55,14 @@ def test_bench_retarget_skips_the_peer_without_mink(capsys, monkeypatch, no_pinn
     assert len(skipped) == 1 and "pip install" in skipped[0]
     report = json.loads(out)
     assert report["results"] and "peer" not in report and "speedup" not in report
+
+
+def test_bench_retarget_times_the_per_frame_path_in_the_same_run(capsys, no_pinning):
+    assert bench.main(["retarget", "--hands", "none", "--seconds", "0.05", "--per-frame"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert [row["robot"] for row in report["per_frame"]] == [row["robot"] for row in report["results"]]
+    ours = end_to_end_frames_per_second(report["results"])
+    for row in report["per_frame"]:
+        expected = ours[row["robot"], "none"] / row["end_to_end_frames_per_second"]
+        assert report["speedup_over_per_frame"][row["robot"]]["none"] == pytest.approx(expected, rel=0.01)
+        assert row["joint_limit_violations"] == 0

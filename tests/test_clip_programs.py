@@ -1,0 +1,132 @@
+"""Whole-clip retargeting: the programs over all frames, the neutral calibration, CMU fingers."""
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hotu_drake import embodiment
+from hotu_drake.motion.human import LANDMARKS
+from hotu_drake.motion.library import generate
+from hotu_drake.retarget.clip_programs import ClipProgram
+from hotu_drake.retarget.metrics import report
+from hotu_drake.retarget.pipeline import to_robot, to_udh
+from hotu_drake.retarget.retargeter import Retargeter, RetargetOptions
+from tests.conftest import SHARED
+
+CMU = SHARED / "data" / "cmu" / "01_01.bvh"
+PER_FRAME = RetargetOptions(whole_clip=False, calibrate=False)
+
+
+def _dense_step(hessians, gradients, q, regularization, smoothness):
+    """The unconstrained minimiser of the whole-clip cost, by one dense solve."""
+    frames, k = q.shape
+    n = frames * k
+    matrix, vector = np.zeros((n, n)), np.zeros(n)
+    for t in range(frames):
+        here = slice(t * k, (t + 1) * k)
+        matrix[here, here] += hessians[t] + regularization * np.eye(k)
+        vector[here] -= gradients[t]
+        if t + 1 < frames:  # s |dq_t+1 - dq_t + c_t|^2
+            after = slice((t + 1) * k, (t + 2) * k)
+            change = q[t + 1] - q[t]
+            for a, b, sign in ((here, here, 1), (after, after, 1), (here, after, -1), (after, here, -1)):
+                matrix[a, b] += sign * smoothness * np.eye(k)
+            vector[here] += smoothness * change
+            vector[after] -= smoothness * change
+    return np.linalg.solve(matrix, vector).reshape(frames, k)
+
+
+def test_a_clip_program_step_is_the_minimiser_of_its_cost():
+    rng = np.random.default_rng(3)
+    frames, groups = 11, [2, 3]  # two uncoupled groups of columns; 11 frames: blocks of 4 and a tail
+    k = sum(groups)
+    hessians = np.zeros((frames, k, k))
+    start = 0
+    for size in groups:
+        a = rng.normal(size=(frames, 4, size))
+        hessians[:, start : start + size, start : start + size] = np.swapaxes(a, 1, 2) @ a
+        start += size
+    gradients = 0.05 * rng.normal(size=(frames, k))
+    q = 0.1 * rng.normal(size=(frames, k))
+    program = ClipProgram("test", list(range(k)), -np.full(k, 3.0), np.full(k, 3.0), frames, 1e-3, 0.5, groups)
+    step = program.step(hessians, gradients, q)
+    expected = _dense_step(hessians, gradients, q, 1e-3, 0.5)
+    assert np.max(np.abs(expected)) > 0.02  # a step worth checking, inside the trust region
+    np.testing.assert_allclose(step, expected, atol=2e-3)
+    # Limits and the trust region bound the step.
+    big = program.step(hessians, 100.0 * gradients, q)
+    assert np.all(np.abs(big) <= 0.6 + 1e-9) and np.all(np.abs(q + big) <= 3.0 + 1e-9)
+    assert np.max(np.abs(big)) > 0.5
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return generate("walk")
+
+
+def test_the_whole_clip_is_no_worse_than_frame_by_frame(walk):
+    """On the generated walk, human -> UDH -> H1: the whole-clip programs keep
+    the limits and the floor, and skate and key-body error do not grow."""
+    h1 = embodiment.load("h1", "none")
+    figures = {}
+    for name, options in (("clip", RetargetOptions()), ("frames", PER_FRAME)):
+        udh = to_udh(walk, "none", options).clip
+        result = to_robot(udh, "h1", "none", options)
+        figures[name] = report(walk, result.clip, h1, result.seconds)
+    clip, frames = figures["clip"], figures["frames"]
+    assert clip["joint_limit_violations"] == 0 and clip["foot_penetration_m"] <= 1e-3
+    assert clip["foot_skate_m_per_s"] <= frames["foot_skate_m_per_s"] + 0.005
+    assert clip["key_body_error"] <= frames["key_body_error"] + 0.005
+
+
+def test_neutral_calibration_holds_walkers_shins_and_naviais_shoulders_as_built(walk):
+    """The neutral pose's offsets (Walker's angled shins, NAVIAI's shoulders)
+    are kept instead of fought: the direction error measured from each
+    robot's neutral pose drops for those parts."""
+    udh = to_udh(walk, "none").clip
+    for robot, part in (("walker", "knee"), ("naviai", "shoulder")):
+        emb = embodiment.load(robot, "none")
+        calibration = Retargeter(emb, set(LANDMARKS)).calibration
+        errors = {}
+        for calibrate in (False, True):
+            result = to_robot(udh, robot, "none", RetargetOptions(calibrate=calibrate))
+            errors[calibrate] = report(walk, result.clip, emb, result.seconds)["part_direction_error_neutral_deg"]
+        assert errors[True][part]["mean"] < 0.5 * errors[False][part]["mean"], robot
+        # The offset itself, measured with the robot standing as straight as it can.
+        frame, turn, _, _ = calibration[("dir", f"left_{part}", "left_ankle" if part == "knee" else "left_elbow")]
+        assert np.degrees(np.arccos((np.trace(turn) - 1) / 2)) > 10.0, robot
+    # The UDH is its own neutral: nothing to calibrate.
+    assert Retargeter(embodiment.load("udh", "none"), set(LANDMARKS)).calibration == {}
+
+
+def _cmu_with_bending_fingers(tmp_path: Path, frames: int = 120) -> Path:
+    """The CMU clip's first frames with the left hand's finger chain bending by 80 degrees."""
+    lines = CMU.read_text().splitlines()
+    names = [m.group(2) for m in (re.match(r"\s*(ROOT|JOINT)\s+(\S+)", line) for line in lines) if m]
+    counts = [int(m.group(1)) for m in (re.match(r"\s*CHANNELS\s+(\d+)", line) for line in lines) if m]
+    column = sum(counts[: names.index("LFingers")]) + 1  # its Y rotation bends the fingers
+    first = lines.index("MOTION") + 3
+    out = [*lines[: first - 2], f"Frames: {frames}", lines[first - 1]]
+    for t in range(frames):
+        values = lines[first + t].split()
+        values[column] = str(float(values[column]) + 80.0 * t / (frames - 1))
+        out.append(" ".join(values))
+    path = tmp_path / "cmu_fingers.bvh"
+    path.write_text("\n".join(out) + "\n")
+    return path
+
+
+@pytest.mark.skipif(not CMU.exists(), reason="the shared CMU clip is not here")
+def test_cmu_finger_channels_drive_the_finger_parts(tmp_path):
+    from hotu_drake.motion.load import load_motion
+
+    source = load_motion(_cmu_with_bending_fingers(tmp_path))
+    assert {"left_thumb_4", "left_index_4", "right_index_4"} <= set(source.key_body_names)
+    udh = to_udh(source, "full").clip
+    bend = {side: udh.joint_positions[:, udh.joint_names.index(f"{side}_index_2")] for side in ("left", "right")}
+    assert bend["left"][-1] - bend["left"][0] > 0.2  # the left fingers close with the source's
+    assert abs(bend["right"][-1] - bend["right"][0]) < 0.05  # the right hand's are still
+    figures = report(source, udh, embodiment.load("udh", "full"), 1.0)
+    assert figures["part_direction_error_deg"]["finger"]["mean"] < 20.0
