@@ -39,6 +39,7 @@ from hotu_drake.embodiment.spec import SIDES
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import landmarks_of
 from hotu_drake.retarget import frames
+from hotu_drake.retarget.retargeter import leg_length
 
 SOLVER = "daqp"
 DAMPING = 0.5  # the solver's Levenberg-Marquardt damping (GMR's)
@@ -76,16 +77,6 @@ def mink_available() -> bool:
     except ImportError:
         return False
     return SOLVER in qpsolvers.available_solvers
-
-
-def _leg_length(p: dict[str, np.ndarray]) -> float:
-    """Median hip-knee-ankle length over both legs (and all frames)."""
-    lengths = [
-        np.linalg.norm(p[f"{s}_knee"] - p[f"{s}_hip"], axis=-1)
-        + np.linalg.norm(p[f"{s}_ankle"] - p[f"{s}_knee"], axis=-1)
-        for s in SIDES
-    ]
-    return float(np.median(np.concatenate([np.atleast_1d(x) for x in lengths])))
 
 
 def _frame_names(names: set[str]) -> set[str]:
@@ -194,7 +185,7 @@ class _Peer:
     def targets(self, src: dict[str, np.ndarray]) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
         """Per landmark: target positions (T, 3), and target link rotations as quaternions (T, 4) where oriented."""
         if self.legged:  # the root follows the pelvis scaled by the leg ratio; every offset from it likewise
-            ratio = _leg_length(self.rest) / _leg_length(src)
+            ratio = leg_length(self.rest) / leg_length(src)
             anchor = src["pelvis"] * ratio
             positions = {n: anchor + (src[n] - src["pelvis"]) * ratio for n in self.names}
         else:  # no legs to scale by: the source chest at the robot's rest chest height

@@ -89,7 +89,8 @@ def _source_frames(src: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     return out
 
 
-def _leg_length(p: dict[str, np.ndarray]) -> float:
+def leg_length(p: dict[str, np.ndarray]) -> float:
+    """Median hip-knee-ankle length over both legs and all frames: the body scale of the root path."""
     lengths = [
         np.linalg.norm(p[f"{s}_knee"] - p[f"{s}_hip"], axis=-1)
         + np.linalg.norm(p[f"{s}_ankle"] - p[f"{s}_knee"], axis=-1)
@@ -383,7 +384,7 @@ class Retargeter:
     def scale_ratio(self, src: dict[str, np.ndarray]) -> float:
         """The body-size ratio (leg lengths, this embodiment over the source)
         that scales the root path and the objects."""
-        return _leg_length(self.rest) / _leg_length(src) if self.legged else 1.0
+        return leg_length(self.rest) / leg_length(src) if self.legged else 1.0
 
     def _body_pose(self, q, root_rotation, root_position):
         """Poses of every link but the fingers."""
