@@ -130,3 +130,25 @@ def test_cmu_finger_channels_drive_the_finger_parts(tmp_path):
     assert abs(bend["right"][-1] - bend["right"][0]) < 0.05  # the right hand's are still
     figures = report(source, udh, embodiment.load("udh", "full"), 1.0)
     assert figures["part_direction_error_deg"]["finger"]["mean"] < 20.0
+
+
+def test_root_heights_follow_the_frame_by_frame_rule():
+    """Planted soles on the floor, the offset held while no foot is planted,
+    and no sole below the floor: the vectorised offsets equal the rule's loop."""
+    from hotu_drake.retarget.clip_programs import ClipSolver
+
+    rng = np.random.default_rng(0)
+    for _ in range(100):
+        frames = int(rng.integers(1, 60))
+        lowest = {"left": rng.normal(0.0, 0.05, frames), "right": rng.normal(0.0, 0.05, frames)}
+        contacts = {"left": rng.random(frames) < 0.4, "right": rng.random(frames) < 0.3}
+        solver = ClipSolver.__new__(ClipSolver)
+        solver.frames = frames
+        offset, expected = 0.0, []
+        for t in range(frames):
+            planted = [lowest[side][t] for side in lowest if contacts[side][t]]
+            if planted:
+                offset = -min(planted)
+            offset = max(offset, -min(lowest["left"][t], lowest["right"][t]))
+            expected.append(offset)
+        np.testing.assert_allclose(solver._heights(lowest, contacts), expected, atol=1e-9)

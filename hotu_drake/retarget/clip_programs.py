@@ -325,17 +325,20 @@ class ClipSolver:
     def _heights(self, lowest: dict[str, np.ndarray], contacts: dict[str, np.ndarray]) -> np.ndarray:
         """Root height offsets: the lowest planted sole on the floor, held
         while no foot is planted, and no sole ever below the floor."""
-        offsets = np.zeros(self.frames)
-        offset = 0.0
         feet = np.stack(list(lowest.values()), axis=1)  # (T, feet)
         flags = np.stack([contacts[side] if side in contacts else np.zeros(self.frames, bool) for side in lowest], 1)
-        for t in range(self.frames):
-            planted = np.flatnonzero(flags[t])
-            if planted.size:
-                offset = -float(np.min(feet[t, planted]))
-            offset = max(offset, -float(np.min(feet[t])))
-            offsets[t] = offset
-        return offsets
+        planted = flags.any(axis=1)
+        # Frame by frame: o_t = max(lift of the planted soles if any, else o_t-1; lift of all soles).
+        # Each run from a planted frame to the next is one running maximum.
+        lowest_planted = np.where(flags, feet, np.inf).min(axis=1)
+        start = np.where(planted, -lowest_planted, -np.inf)
+        if not planted[0]:
+            start[0] = 0.0  # the clip starts without an offset
+        values = np.maximum(start, -feet.min(axis=1))
+        values = np.where(planted | (np.arange(self.frames) == 0), values, -feet.min(axis=1))
+        runs = np.cumsum(planted | (np.arange(self.frames) == 0))
+        span = 1e3 + np.ptp(values)  # lifts of different runs never mix
+        return np.maximum.accumulate(values + runs * span) - runs * span
 
     def plant_feet(
         self, q: np.ndarray, rotations: np.ndarray, positions: np.ndarray, contacts: dict, fixed: dict
