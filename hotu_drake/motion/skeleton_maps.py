@@ -54,9 +54,9 @@ _FAMILIES: dict[str, dict] = {
             "toe": ("{Side}ToeBase", "{Side}Foot:end"),
         },
         # One chain carries the four fingers together (FingerBase -> Fingers ->
-        # tips) and one the thumb (from the wrist): the finger tips and the
-        # thumb's base and tip; a finger is then matched from the knuckles
-        # (`hand`) to its tip, the thumb from its base to its tip.
+        # tips) and one the thumb (from the wrist): only the tips are points
+        # of their own; a finger is matched from the knuckles (`hand`) to its
+        # tip, the thumb from the wrist (`retargeter.whole_finger_points`).
         "finger": {
             "names": {
                 "thumb": "Thumb",
@@ -66,7 +66,6 @@ _FAMILIES: dict[str, dict] = {
                 "little": "Fingers",
             },
             "points": {4: ("{S}{F}:end",)},
-            "by_finger": {"thumb": {1: ("{S}{F}",), 4: ("{S}{F}:end",)}},
         },
         "signature": ("LHipJoint", "RHipJoint", "LowerBack", "Neck1", "LeftFingerBase", "LFingers", "LThumb"),
     },
@@ -197,8 +196,7 @@ def family_map(name: str) -> dict[str, tuple[str, ...]]:
             out[f"{side}_{limb}"] = tuple(_fill(t, side) for t in templates)
         if family["finger"]:
             for finger, label in family["finger"]["names"].items():
-                points = family["finger"].get("by_finger", {}).get(finger, family["finger"]["points"])
-                for point, templates in points.items():
+                for point, templates in family["finger"]["points"].items():
                     out[f"{side}_{finger}_{point}"] = tuple(_fill(t, side, label) for t in templates)
     return out
 

@@ -17,7 +17,8 @@ vectorised pass (`Tree.forward_frames`, `Landmarks.*_frames`); the targets
 and parts are the streaming path's own.
 
 Planted feet: after the parts, the root height keeps planted soles on the
-floor, the root follows the earliest planted foot's anchor, and one more
+floor, the root follows the first planted foot's anchor (left before right, as the
+streaming path does), and one more
 program over both legs holds every planted ankle on its anchor with its sole
 level, over each contact phase.
 """
@@ -67,6 +68,7 @@ class ClipProgram:
         self.name, self.joints, self.frames = name, list(joints), frames
         self.lower, self.upper = np.asarray(lower, float), np.asarray(upper, float)
         self.regularization, self.smoothness = regularization, smoothness
+        self.failed = False  # whether the last step's solve failed
         k = len(self.joints)
         self.program = MathematicalProgram()
         self.dq = self.program.NewContinuousVariables(frames, k, f"d{name}")
@@ -161,7 +163,8 @@ class ClipProgram:
         high = np.maximum(np.minimum(self.upper - q, TRUST_REGION), 0.0)
         self._bounds.evaluator().set_bounds(low.reshape(-1), high.reshape(-1))
         result = self._solver.Solve(self.program, None, self._options)
-        if not result.is_success():
+        self.failed = not result.is_success()
+        if self.failed:  # no step this time; the caller does not count the level as settled
             return np.zeros_like(q)
         # dq is the program's only variable, stored column by column (Eigen's order).
         return np.clip(result.get_x_val().reshape(k, frames).T, low, high)
@@ -194,11 +197,8 @@ class ClipSolver:
         for part in r.parts:
             self.levels.setdefault(part.level, []).append(part)
         self._programs: dict[int, ClipProgram] = {}
-        self.lock = None
-        if r.legged and r._lock and options.lock_feet:
-            joints = [j for side in SIDES if side in r._lock for j in r._lock[side][0].joints]
-            groups = [len(r._lock[side][0].joints) for side in SIDES if side in r._lock]
-            self.lock = self._program("legs", joints, frames, groups)
+        self.plants_feet = bool(r.legged and r._lock and options.lock_feet)
+        self._lock: ClipProgram | None = None
 
     def program(self, level: int) -> ClipProgram:
         """The program of one level, built when first needed."""
@@ -208,6 +208,16 @@ class ClipSolver:
             groups = [size for part in parts for size in self._independent(part)]
             self._programs[level] = self._program(f"level{level}", joints, self.frames, groups)
         return self._programs[level]
+
+    @property
+    def lock(self) -> ClipProgram:
+        """The legs' program that plants the feet, built when first needed."""
+        if self._lock is None:
+            r = self.r
+            sides = [side for side in SIDES if side in r._lock]
+            joints = [j for side in sides for j in r._lock[side][0].joints]
+            self._lock = self._program("legs", joints, self.frames, [len(r._lock[s][0].joints) for s in sides])
+        return self._lock
 
     def _independent(self, part) -> list[int]:
         """Sizes of the runs of a part's joints that no target couples: one
@@ -304,7 +314,7 @@ class ClipSolver:
                     start += len(joints)
                 step = program.step(hessian, gradient, q[:, program.joints])
                 q[:, program.joints] += step
-                moved[level] = float(np.max(np.abs(step)))
+                moved[level] = np.inf if program.failed else float(np.max(np.abs(step)))
             if max(moved.values(), default=0.0) < r.options.tolerance:
                 break
         return moved
@@ -348,7 +358,7 @@ class ClipSolver:
         r = self.r
         positions = positions.copy()
         positions[:, 2] += self._heights(self._lowest(q, rotations, positions), contacts)
-        if self.lock is None:
+        if not self.plants_feet:
             return positions
         poses = r.tree.forward_frames(q, rotations, positions, r._body_groups)
         ankles = {side: r.marks.point_jacobian_frames(poses, f"{side}_ankle", [])[0] for side in r._lock}
@@ -363,7 +373,7 @@ class ClipSolver:
             for side in planted:  # a foot lands: its anchor is where it is, unshifted
                 current.setdefault(side, ankles[side][t].copy())
                 anchors[side][t] = current[side]
-            if planted:  # the earliest planted foot carries the body
+            if planted:  # the first planted foot (left before right) carries the body
                 drift = current[planted[0]] - ankles[planted[0]][t]
                 shift[t, :2] = drift[:2]
         positions += shift
@@ -403,7 +413,7 @@ class ClipSolver:
                 start += len(joints)
             step = program.step(hessian, gradient, q[:, program.joints])
             q[:, program.joints] += step
-            if float(np.max(np.abs(step))) < r.options.tolerance:
+            if not program.failed and float(np.max(np.abs(step))) < r.options.tolerance:
                 break
 
 

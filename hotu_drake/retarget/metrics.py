@@ -11,7 +11,7 @@ from hotu_drake import embodiment as embodiments
 from hotu_drake.embodiment.landmarks import landmark_placements
 from hotu_drake.embodiment.spec import FINGERS
 from hotu_drake.motion.clip import MotionClip
-from hotu_drake.motion.human import body_height, landmarks_of
+from hotu_drake.motion.human import FINGER_POINTS, body_height, landmarks_of
 from hotu_drake.motion.udh_skeleton import points_on_clip
 from hotu_drake.retarget import frames
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
@@ -102,8 +102,10 @@ def report(source: MotionClip, result: MotionClip, emb: embodiments.Embodiment, 
         if f"{side}_hand" not in src_hands or not {f"{side}_index_1", f"{side}_little_1"} <= set(dst):
             continue
         for finger in FINGERS:
-            a, b = f"{side}_{finger}_1", f"{side}_{finger}_4"
-            pair = (a, b, a, b) if {a, b} <= set(src) else whole_finger_points(set(src), set(dst), side, finger)
+            # The segment the retargeting matched: base to tip, or the whole finger of a coarser capture.
+            chain = [f"{side}_{finger}_{i}" for i in FINGER_POINTS]
+            a, b = chain[0], chain[-1]
+            pair = (a, b, a, b) if set(chain) <= set(src) else whole_finger_points(set(src), set(dst), side, finger)
             if pair is not None and {pair[2], pair[3]} <= set(dst):
                 d_src = np.einsum("tji,tj->ti", src_hands[f"{side}_hand"], src[pair[1]] - src[pair[0]])
                 d_dst = np.einsum("tji,tj->ti", frames.hand_frame(dst, side), dst[pair[3]] - dst[pair[2]])

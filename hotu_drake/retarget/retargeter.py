@@ -71,6 +71,12 @@ class _Part:
     settled: bool = False
 
 
+def has_hand_frame(names, side: str) -> bool:
+    """Whether landmarks `names` define a hand frame (`_source_frames`)."""
+    base = {f"{side}_wrist", f"{side}_hand"}
+    return base | {f"{side}_index_1", f"{side}_little_1"} <= set(names) or base | {f"{side}_thumb_4"} <= set(names)
+
+
 def _source_frames(src: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     """Body frames of the source over all frames, where its landmarks allow."""
     out = {"chest": frames.chest_frame(src)}
@@ -124,6 +130,8 @@ class Retargeter:
         self.calibration: dict = {}
         if self.options.calibrate and embodiment.name != "udh":
             self.calibration = neutral_calibration(self, set(source_landmarks))
+            for part in self.parts:  # the neutral solve is not a frame of any clip
+                part.signature, part.settled = None, False
 
     # --- set-up -------------------------------------------------------------------
 
@@ -248,7 +256,7 @@ class Retargeter:
         """One direction over a whole finger for a source without the
         finger's middle points (`whole_finger_points`)."""
         points = whole_finger_points(src, set(self.marks.items), side, finger)
-        if points is None or f"{side}_hand" not in self.rest_frames:
+        if points is None or f"{side}_hand" not in self.rest_frames or not has_hand_frame(src, side):
             return None
         source_base, source_tip, base, tip = points
         return Direction(base, tip, 0.5), ("finger", source_base, source_tip, f"{side}_hand")
