@@ -66,3 +66,15 @@ def test_bench_retarget_times_the_per_frame_path_in_the_same_run(capsys, no_pinn
         expected = ours[row["robot"], "none"] / row["end_to_end_frames_per_second"]
         assert report["speedup_over_per_frame"][row["robot"]]["none"] == pytest.approx(expected, rel=0.01)
         assert row["joint_limit_violations"] == 0
+
+
+def test_bench_retarget_alternates_pairs_with_the_peer(capsys, no_pinning):
+    pytest.importorskip("mink")
+    assert bench.main(["retarget", "--hands", "none", "--seconds", "0.05", "--peer", "mink", "--pairs", "2"]) == 0
+    pairs = json.loads(capsys.readouterr().out)["pairs"]
+    assert set(pairs) == {"udh", "naviai", "h1", "bruce", "walker", "curi"}
+    for robot in pairs.values():
+        row = robot["none"]
+        assert len(row["ours"]) == len(row["peer"]) == 2
+        ratios = sorted(a / b for a, b in zip(row["ours"], row["peer"]))
+        assert row["median_speedup"] == pytest.approx(sum(ratios) / 2, rel=0.01)

@@ -2,7 +2,8 @@
 
 python -m hotu_drake.bench standing [--robot NAME|all] [--hands full|none|both]
                                     [--seconds S] [--time-step DT] [--no-self-collision]
-python -m hotu_drake.bench retarget [--input FILE] [--hands full|none|both] [--seconds S] [--peer mink] [--per-frame]
+python -m hotu_drake.bench retarget [--input FILE] [--hands full|none|both] [--seconds S]
+                                    [--peer mink [--pairs N]] [--per-frame]
 python -m hotu_drake.bench diagram  [--robot NAME|all] [--hands full|none|both] [--seconds S] [--markdown]
 python -m hotu_drake.bench env      [--robot NAME] [--hands full|none] [--envs N] [--seconds S]
                                     [--motions M ...] [--backend local|ray] [--fidelity] [--peer mujoco] [--json]
@@ -83,8 +84,34 @@ def _retarget(args) -> int:
             print(json.dumps(peer_row), file=sys.stderr, flush=True)
             report["peer"].append(peer_row)
             report["speedup"].setdefault(row["robot"], {})[row["hands"]] = peer_row["speedup"]
+        if args.pairs:  # alternate ours and the peer per robot, so a slow spell of the machine hits both
+            report["pairs"] = _alternating_pairs(source, variants, args.pairs)
     print(json.dumps(report, indent=2))
     return 0
+
+
+def _alternating_pairs(source, variants: tuple[str, ...], count: int) -> dict:
+    """Per robot and hands: `count` runs of ours (human -> UDH -> robot) each
+    followed by one of the peer; frames/s of each and the median ratio."""
+    import statistics
+
+    from hotu_drake.bench import mink_peer
+    from hotu_drake.retarget.pipeline import ROBOTS, to_robot, to_udh
+
+    out: dict = {}
+    for hands in variants:
+        for robot in ("udh", *ROBOTS):
+            ours, peer = [], []
+            for _ in range(count):
+                udh = to_udh(source, hands)
+                seconds = udh.seconds + (to_robot(udh.clip, robot, hands).seconds if robot != "udh" else 0.0)
+                ours.append(round(source.num_frames / seconds, 1))
+                peer.append(mink_peer.mink_throughput(source, robot, hands)["frames_per_second"])
+            ratios = [a / b for a, b in zip(ours, peer)]
+            row = {"ours": ours, "peer": peer, "median_speedup": round(statistics.median(ratios), 3)}
+            print(json.dumps({"pairs": robot, "hands": hands, **row}), file=sys.stderr, flush=True)
+            out.setdefault(robot, {})[hands] = row
+    return out
 
 
 def _diagram(args, names) -> int:
@@ -273,6 +300,13 @@ def main(argv: list[str] | None = None) -> int:
     retarget.add_argument("--seconds", type=positive_float, help="use only the first S seconds")
     retarget.add_argument(
         "--peer", choices=["mink"], help="also run mink's differential IK, set up as GMR does (the mink extra)"
+    )
+    retarget.add_argument(
+        "--pairs",
+        type=int,
+        default=0,
+        metavar="N",
+        help="with --peer: also time N alternating pairs (ours, then the peer) per robot; the median ratio",
     )
     retarget.add_argument(
         "--per-frame", action="store_true", help="also time the per-frame solve (the stream's), uncalibrated, as before"
