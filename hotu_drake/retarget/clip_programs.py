@@ -34,7 +34,7 @@ from pydrake.solvers import MathematicalProgram, OsqpSolver, SolverOptions
 from hotu_drake.embodiment.spec import SIDES
 from hotu_drake.retarget.part_ik import TRUST_REGION
 from hotu_drake.retarget.tree import Pose
-from hotu_drake.rotations import heading_rotation
+from hotu_drake.rotations import heading_rotation, normalize
 
 if TYPE_CHECKING:
     from hotu_drake.retarget.retargeter import Retargeter
@@ -181,10 +181,6 @@ def normal_equations(rows: list) -> tuple[np.ndarray, np.ndarray]:
     return hessian, gradient
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-9)
-
-
 class ClipSolver:
     """Retargets a whole clip with one `ClipProgram` per level of the tree
     (and one over both legs for the planted feet)."""
@@ -252,12 +248,13 @@ class ClipSolver:
                         continue
                     kind = key if isinstance(key, str) else key[0]
                     if kind == "dir":
-                        out[key] = self.r.calibrated(key, _unit(src[key[2]] - src[key[1]]), src, src_frames)
+                        direction = normalize(src[key[2]] - src[key[1]], floor=1e-9)
+                        out[key] = self.r.calibrated(key, direction, src, src_frames)
                     elif kind == "bend":
                         a, b, c = (src[n] for n in key[1:])
-                        out[key] = np.cross(_unit(b - a), _unit(c - b))
+                        out[key] = np.cross(normalize(b - a, floor=1e-9), normalize(c - b, floor=1e-9))
                     elif kind == "finger":  # the finger's direction in the source's hand frame
-                        v = _unit(src[key[2]] - src[key[1]])
+                        v = normalize(src[key[2]] - src[key[1]], floor=1e-9)
                         out[key] = np.einsum("tji,tj->ti", src_frames[key[3]], v)
                     else:
                         out[key] = src_frames[key]
@@ -300,24 +297,28 @@ class ClipSolver:
                     continue
                 groups = None if level >= 3 else r._body_groups
                 poses = r.tree.forward_frames(q, rotations, positions, groups)
-                program = self.program(level)
-                k = len(program.joints)
-                hessian = np.zeros((self.frames, k, k))
-                gradient = np.zeros((self.frames, k))
-                start = 0
-                for part in self.levels[level]:
-                    joints = part.problem.joints
-                    block = slice(start, start + len(joints))
-                    hessian[:, block, block], gradient[:, block] = normal_equations(
-                        self._rows(part, joints, fixed, q, poses)
-                    )
-                    start += len(joints)
-                step = program.step(hessian, gradient, q[:, program.joints])
-                q[:, program.joints] += step
-                moved[level] = np.inf if program.failed else float(np.max(np.abs(step)))
+                parts = self.levels[level]
+                blocks = [(p.problem.joints, self._rows(p, p.problem.joints, fixed, q, poses)) for p in parts]
+                moved[level] = self._step(self.program(level), blocks, q)
             if max(moved.values(), default=0.0) < r.options.tolerance:
                 break
         return moved
+
+    def _step(self, program: ClipProgram, blocks: list, q: np.ndarray) -> float:
+        """One step of `program` in place on q (T, n), from target rows by block
+        of its joints ((joints, rows), in the program's order); the largest
+        joint change, infinite if the solve failed."""
+        k = len(program.joints)
+        hessian = np.zeros((self.frames, k, k))
+        gradient = np.zeros((self.frames, k))
+        start = 0
+        for joints, rows in blocks:
+            block = slice(start, start + len(joints))
+            hessian[:, block, block], gradient[:, block] = normal_equations(rows)
+            start += len(joints)
+        step = program.step(hessian, gradient, q[:, program.joints])
+        q[:, program.joints] += step
+        return np.inf if program.failed else float(np.max(np.abs(step)))
 
     def _rows(self, part, joints: list[int], fixed: dict, q: np.ndarray, poses: Pose) -> list:
         """A part's target rows over `joints` for every frame."""
@@ -390,13 +391,10 @@ class ClipSolver:
         leg_parts = {
             side: [p for p in r.parts if p.name in {f"{side}_{n}" for n in ("hip", "knee", "ankle")}] for side in SIDES
         }
-        k = len(program.joints)
         planted = {side: ~np.isnan(anchor[:, 0]) for side, anchor in anchors.items()}
         for _ in range(r.options.lock_iterations):
             poses = r.tree.forward_frames(q, rotations, positions, r._body_groups)
-            hessian = np.zeros((self.frames, k, k))
-            gradient = np.zeros((self.frames, k))
-            start = 0
+            blocks = []
             for side in (s for s in SIDES if s in r._lock):
                 problem, position, orientation = r._lock[side]
                 joints = problem.joints
@@ -408,12 +406,8 @@ class ClipSolver:
                 for goal, targets in ((position, target), (orientation, level)):
                     jacobian, error, weight = goal.rows_frames(r.marks, poses, joints, targets)
                     rows.append((jacobian, error, weight * mask))
-                block = slice(start, start + len(joints))
-                hessian[:, block, block], gradient[:, block] = normal_equations(rows)
-                start += len(joints)
-            step = program.step(hessian, gradient, q[:, program.joints])
-            q[:, program.joints] += step
-            if not program.failed and float(np.max(np.abs(step))) < r.options.tolerance:
+                blocks.append((joints, rows))
+            if self._step(program, blocks, q) < r.options.tolerance:
                 break
 
 

@@ -28,6 +28,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from hotu_drake.rotations import normalize
+
 if TYPE_CHECKING:
     from hotu_drake.retarget.retargeter import Retargeter
 
@@ -59,10 +61,6 @@ def thumb_frame_offset(side: str) -> np.ndarray:
 
     rest = _udh_rest()
     return frames.thumb_hand_frame(rest, side).T @ frames.hand_frame(rest, side)
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-9)
 
 
 def rotations_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -111,8 +109,8 @@ def neutral_calibration(retargeter: Retargeter, source_landmarks: set[str]) -> d
         side, joint = _segment(key)
         frame = "pelvis" if joint in LEG else "chest"
         body = src_frames[frame][0]
-        human = body.T @ _unit(src[key[2]][0] - src[key[1]][0])
-        robot = body.T @ _unit(r.marks.position(pose, key[2]) - r.marks.position(pose, key[1]))
+        human = body.T @ normalize(src[key[2]][0] - src[key[1]][0], floor=1e-9)
+        robot = body.T @ normalize(r.marks.position(pose, key[2]) - r.marks.position(pose, key[1]), floor=1e-9)
         turn = rotation_vector(rotations_between(human, robot))
         if key[1] in hinges:  # keep what lies out of the hinge's plane
             axis = body.T @ pose.joint_axes[hinges[key[1]]]
@@ -120,7 +118,7 @@ def neutral_calibration(retargeter: Retargeter, source_landmarks: set[str]) -> d
         parent = ("dir", side + PARENT_SEGMENT[joint], key[1]) if joint in PARENT_SEGMENT else None
         parent_rest = None
         if parent is not None and parent in keys:
-            parent_rest = body.T @ _unit(src[parent[2]][0] - src[parent[1]][0])
+            parent_rest = body.T @ normalize(src[parent[2]][0] - src[parent[1]][0], floor=1e-9)
         else:
             parent = None
         calibration[key] = (
@@ -140,7 +138,8 @@ def calibrate(calibration: dict, key, directions: np.ndarray, src: dict, src_fra
     frame, turn, parent, parent_rest = calibration[key]
     body = src_frames[frame]  # (T, 3, 3)
     if parent is not None:  # the parent segment's swing from rest, in the body frame
-        swing = rotations_between(parent_rest, np.einsum("tji,tj->ti", body, _unit(src[parent[2]] - src[parent[1]])))
+        parent_now = normalize(src[parent[2]] - src[parent[1]], floor=1e-9)
+        swing = rotations_between(parent_rest, np.einsum("tji,tj->ti", body, parent_now))
         body = body @ swing
     local = np.einsum("tji,tj->ti", body, directions)
     return np.einsum("tij,tj->ti", body, local @ turn.T)

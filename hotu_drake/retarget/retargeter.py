@@ -71,10 +71,15 @@ class _Part:
     settled: bool = False
 
 
-def has_hand_frame(names, side: str) -> bool:
-    """Whether landmarks `names` define a hand frame (`_source_frames`)."""
-    base = {f"{side}_wrist", f"{side}_hand"}
-    return base | {f"{side}_index_1", f"{side}_little_1"} <= set(names) or base | {f"{side}_thumb_4"} <= set(names)
+def hand_frame_kind(names, side: str) -> str | None:
+    """How landmarks `names` define a hand frame: across the knuckles, towards
+    the thumb's tip (a capture without a knuckle line), or not at all."""
+    names = set(names)
+    if not {f"{side}_wrist", f"{side}_hand"} <= names:
+        return None
+    if {f"{side}_index_1", f"{side}_little_1"} <= names:
+        return "knuckles"
+    return "thumb" if f"{side}_thumb_4" in names else None
 
 
 def _source_frames(src: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -86,9 +91,10 @@ def _source_frames(src: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         out["head"] = frames.head_frame(src)
     lateral = out["pelvis"][:, :, 1]
     for side in SIDES:
-        if all(f"{side}_{n}" in src for n in ("wrist", "hand", "index_1", "little_1")):
+        kind = hand_frame_kind(src, side)
+        if kind == "knuckles":
             out[f"{side}_hand"] = frames.hand_frame(src, side)
-        elif all(f"{side}_{n}" in src for n in ("wrist", "hand", "thumb_4")):
+        elif kind == "thumb":
             out[f"{side}_hand"] = frames.thumb_hand_frame(src, side) @ thumb_frame_offset(side)
         if f"{side}_toe" in src:
             out[f"{side}_foot"] = frames.foot_frame(src, side, lateral)
@@ -256,7 +262,7 @@ class Retargeter:
         """One direction over a whole finger for a source without the
         finger's middle points (`whole_finger_points`)."""
         points = whole_finger_points(src, set(self.marks.items), side, finger)
-        if points is None or f"{side}_hand" not in self.rest_frames or not has_hand_frame(src, side):
+        if points is None or f"{side}_hand" not in self.rest_frames or hand_frame_kind(src, side) is None:
             return None
         source_base, source_tip, base, tip = points
         return Direction(base, tip, 0.5), ("finger", source_base, source_tip, f"{side}_hand")
@@ -305,6 +311,8 @@ class Retargeter:
         if kind == "dir":
             v = src[key[2]][t] - src[key[1]][t]
             v = v / max(np.linalg.norm(v), 1e-9)
+            if key not in self.calibration:
+                return v
             here = {n: f[t : t + 1] for n, f in src.items()}
             return self.calibrated(key, v[None], here, {n: f[t : t + 1] for n, f in src_frames.items()})[0]
         if kind == "bend":
