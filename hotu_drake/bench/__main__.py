@@ -35,6 +35,7 @@ def _retarget(args) -> int:
     from hotu_drake.bench.retarget import end_to_end_frames_per_second, retarget_throughput, source_clip
     from hotu_drake.motion.clip import ClipFormatError
 
+    check_number(args.pairs, "--pairs", low=0, high=20, integer=True)
     try:
         source = source_clip(args.input, args.seconds)
     except ClipFormatError as error:
