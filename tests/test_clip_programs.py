@@ -11,6 +11,7 @@ from hotu_drake.motion.human import LANDMARKS
 from hotu_drake.motion.library import generate
 from hotu_drake.retarget.clip_programs import ClipProgram
 from hotu_drake.retarget.metrics import report
+from hotu_drake.retarget.part_ik import FINGER_LEVEL
 from hotu_drake.retarget.pipeline import to_robot, to_udh
 from hotu_drake.retarget.retargeter import Retargeter, RetargetOptions
 from tests.conftest import SHARED
@@ -212,5 +213,5 @@ def test_finger_tips_without_a_hand_frame_are_left_alone():
             del src[name]
         del src[f"{side}_thumb_4"]
     retargeter = Retargeter(embodiment.load("udh", "full"), set(src))
-    assert not [part for part in retargeter.parts if part.level == 3]
+    assert not [part for part in retargeter.parts if part.level == FINGER_LEVEL]
     assert retargeter.retarget_landmarks(src, 120.0).num_frames == 12

@@ -2,8 +2,8 @@
 
 Offline the whole clip is known, so instead of stepping each part frame by
 frame (`RetargetStream`, the streaming path), all parts of one level of the
-tree (proximal first: torso, shoulders, hips; then elbows, knees and the
-neck; then wrists and ankles; then fingers) are solved for every frame at
+tree (proximal first: the torso; shoulders and hips; elbows, knees and the
+neck; wrists and ankles; fingers) are solved for every frame at
 once. The step dq of the level's joints minimises
 
     sum_t [ sum_k w_tk |J_tk dq_t - e_tk|^2 + reg |dq_t|^2 ]
@@ -32,7 +32,7 @@ import numpy as np
 from pydrake.solvers import MathematicalProgram, OsqpSolver, SolverOptions
 
 from hotu_drake.embodiment.spec import SIDES
-from hotu_drake.retarget.part_ik import TRUST_REGION
+from hotu_drake.retarget.part_ik import FINGER_LEVEL, TRUST_REGION
 from hotu_drake.retarget.tree import Pose
 from hotu_drake.rotations import heading_rotation, normalize
 
@@ -71,22 +71,24 @@ class ClipProgram:
         self.failed = False  # whether the last step's solve failed
         k = len(self.joints)
         self.program = MathematicalProgram()
-        self.dq = self.program.NewContinuousVariables(frames, k, f"d{name}")
+        # dq (T, K) in the program's order, column by column (as a matrix of variables would be).
+        self.dq = self.program.NewContinuousVariables(frames * k, f"d{name}").reshape(k, frames).T
         # Blocks whose cost reaches into the next frame, and the last one (which cannot).
         starts = np.arange(0, frames, self.BLOCK)
         self._linked = starts[starts + self.BLOCK < frames]
         self._tail = int(self._linked[-1] + self.BLOCK) if len(self._linked) else 0
+        # Per group of columns: its blocks' variables, their costs (added at
+        # the first step, with its coefficients) and the Hessians' layouts.
         self._groups = []
         for columns in self._merge(groups or [k]):
-            costs = []
-            for start in (*self._linked, self._tail):
-                end = min(start + self.BLOCK + 1, frames)
-                block = self.dq[start:end, columns].reshape(-1)
-                costs.append(self.program.AddQuadraticCost(np.eye(len(block)), np.zeros(len(block)), block, True))
+            blocks = [
+                self.dq[start : min(start + self.BLOCK + 1, frames), columns].reshape(-1)
+                for start in (*self._linked, self._tail)
+            ]
             width = columns.stop - columns.start
             linked = self._layout(len(self._linked), self.BLOCK, True, width)
             tail = self._layout(1, frames - self._tail, False, width)
-            self._groups.append((columns, costs, linked, tail))
+            self._groups.append((columns, blocks, [], linked, tail))
         self._bounds = self.program.AddBoundingBoxConstraint(
             -np.ones(frames * k), np.ones(frames * k), self.dq.reshape(-1)
         )
@@ -149,7 +151,7 @@ class ClipProgram:
         frames, k = q.shape
         change = q[1:] - q[:-1]  # the smoothness term's constant: q_t+1 - q_t
         tail = np.array([self._tail])
-        for columns, costs, linked, last in self._groups:
+        for columns, variables, costs, linked, last in self._groups:
             width = columns.stop - columns.start
             own = hessian[:, columns, columns] + self.regularization * np.eye(width)
             terms = (own, gradient[:, columns], change[:, columns])
@@ -157,8 +159,11 @@ class ClipProgram:
                 list(zip(*self._blocks(linked, self._linked, self.BLOCK, True, *terms))) if len(self._linked) else []
             )
             blocks += zip(*self._blocks(last, tail, frames - self._tail, False, *terms))
-            for cost, (matrix, vector) in zip(costs, blocks):
-                cost.evaluator().UpdateCoefficients(matrix, vector, 0.0, True)
+            if costs:
+                for cost, (matrix, vector) in zip(costs, blocks):
+                    cost.evaluator().UpdateCoefficients(matrix, vector, 0.0, True)
+            else:
+                costs += [self.program.AddQuadraticCost(m, v, x, True) for x, (m, v) in zip(variables, blocks)]
         low = np.minimum(np.maximum(self.lower - q, -TRUST_REGION), 0.0)
         high = np.maximum(np.minimum(self.upper - q, TRUST_REGION), 0.0)
         self._bounds.evaluator().set_bounds(low.reshape(-1), high.reshape(-1))
@@ -166,7 +171,7 @@ class ClipProgram:
         self.failed = not result.is_success()
         if self.failed:  # no step this time; the caller does not count the level as settled
             return np.zeros_like(q)
-        # dq is the program's only variable, stored column by column (Eigen's order).
+        # dq is the program's only variable, stored column by column.
         return np.clip(result.get_x_val().reshape(k, frames).T, low, high)
 
 
@@ -218,7 +223,7 @@ class ClipSolver:
     def _independent(self, part) -> list[int]:
         """Sizes of the runs of a part's joints that no target couples: one
         run per finger in a hand's part, else the whole part."""
-        if part.level < 3:
+        if part.level < FINGER_LEVEL:
             return [len(part.problem.joints)]
         names = [self.r.tree.joint_names[j].rsplit("_", 1)[0] for j in part.problem.joints]
         return [len(list(run)) for _, run in itertools.groupby(names)]
@@ -277,9 +282,11 @@ class ClipSolver:
         fixed: dict,
         iterations: int,
         moved: dict[int, float] | None = None,
+        tolerance: float | None = None,
     ) -> dict[int, float]:
         """Relinearise and solve every level in turn (at most `iterations`
-        times, until no joint moves more than the tolerance), in place on q
+        times, until no joint moves more than `tolerance`, by default the
+        options' own), in place on q
         (T, n); returns each level's last largest step.
 
         A level that has settled (by its last step, or `moved` from a coarser
@@ -287,20 +294,21 @@ class ClipSolver:
         fingers' targets are in the hand's own frame, so they wait for
         nothing but themselves."""
         r = self.r
+        tolerance = r.options.tolerance if tolerance is None else tolerance
         moved = {level: (moved or {}).get(level, np.inf) for level in self.levels}
         for _ in range(iterations):
             for level in sorted(self.levels):
-                settled = moved[level] < r.options.tolerance
-                below = [moved[other] for other in self.levels if other < level and level < 3]
-                if settled and all(m < r.options.tolerance for m in below):
+                settled = moved[level] < tolerance
+                below = [moved[other] for other in self.levels if other < level and level < FINGER_LEVEL]
+                if settled and all(m < tolerance for m in below):
                     moved[level] = 0.0
                     continue
-                groups = None if level >= 3 else r._body_groups
+                groups = None if level >= FINGER_LEVEL else r._body_groups
                 poses = r.tree.forward_frames(q, rotations, positions, groups)
                 parts = self.levels[level]
                 blocks = [(p.problem.joints, self._rows(p, p.problem.joints, fixed, q, poses)) for p in parts]
                 moved[level] = self._step(self.program(level), blocks, q)
-            if max(moved.values(), default=0.0) < r.options.tolerance:
+            if max(moved.values(), default=0.0) < tolerance:
                 break
         return moved
 
@@ -423,7 +431,7 @@ def retarget_clip(
 
     Coarse to fine: the programs first converge on every `coarse_stride`-th
     frame from the standing pose; the joint paths interpolated from them
-    start a few relinearisations over all frames; then the legs' program
+    start the relinearisations over all frames; then the legs' program
     plants the feet.
     """
     r, options = retargeter, retargeter.options
@@ -439,13 +447,19 @@ def retarget_clip(
         coarse = np.unique(np.r_[np.arange(0, frames, stride), frames - 1])
         q_coarse = q[coarse]
         moved = ClipSolver(r, len(coarse)).solve_parts(
-            q_coarse, rotations[coarse], positions[coarse], _take(fixed, coarse), options.clip_iterations
+            q_coarse,
+            rotations[coarse],
+            positions[coarse],
+            _take(fixed, coarse),
+            options.clip_iterations,
+            tolerance=options.coarse_tolerance,
         )
         everywhere = np.arange(frames)
         for j in {j for part in r.parts for j in part.problem.joints}:
             q[:, j] = np.interp(everywhere, coarse, q_coarse[:, j])
         # Only the fingers may stay as interpolated: their coarse solve settled and waits for no other level.
-        solver.solve_parts(q, rotations, positions, fixed, options.fine_iterations, {3: moved.get(3, np.inf)})
+        fingers = {FINGER_LEVEL: moved.get(FINGER_LEVEL, np.inf)}
+        solver.solve_parts(q, rotations, positions, fixed, options.fine_iterations, fingers)
     else:
         solver.solve_parts(q, rotations, positions, fixed, options.clip_iterations)
     if r.legged:

@@ -15,6 +15,11 @@ import numpy as np
 from pydrake.solvers import MathematicalProgram, OsqpSolver, SolverOptions
 
 TRUST_REGION = 0.6  # rad (or m) per iteration
+# Parts are solved proximal first, by level: the torso; shoulders and hips;
+# elbows, knees and the neck; wrists and ankles; the fingers. A part's
+# targets depend on the levels before it, which the one linearisation of a
+# level holds fixed: so the torso gets a level of its own.
+FINGER_LEVEL = 4
 
 
 class PartProblem:

@@ -28,7 +28,7 @@ from hotu_drake.retarget import frames
 from hotu_drake.retarget.clip_programs import retarget_clip
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
 from hotu_drake.retarget.neutral import calibrate, neutral_calibration, thumb_frame_offset
-from hotu_drake.retarget.part_ik import PartProblem
+from hotu_drake.retarget.part_ik import FINGER_LEVEL, PartProblem
 from hotu_drake.retarget.targets import BendPlane, Coupling, Direction, Landmarks, Orientation, Position
 from hotu_drake.retarget.tree import Tree, cross, rotation_vector
 from hotu_drake.rotations import heading_rotation, matrix_to_quat
@@ -44,9 +44,10 @@ class RetargetOptions:
 
     whole_clip: bool = True  # a clip at once (`clip_programs`); False: frame by frame, as a stream does
     clip_iterations: int = 8  # whole clip: at most this many relinearisations of all levels on the coarse frames
+    coarse_tolerance: float = 0.02  # or until no joint moves more (rad): the pass over all frames takes it from there
     coarse_stride: int = 8  # every this many frames of the clip (1: no coarse pass)
-    fine_iterations: int = 2  # then over all frames
-    lock_iterations: int = 2  # and of the legs' program that plants the feet
+    fine_iterations: int = 1  # then over all frames
+    lock_iterations: int = 1  # and of the legs' program that plants the feet
     sweeps: int = 2  # at most this many passes over all parts per frame (30 fps)
     high_rate_sweeps: int = 1  # the same at 60 fps or more, where frames are close
     tolerance: float = 2e-3  # stop the passes once no joint moves more (rad)
@@ -61,7 +62,7 @@ class RetargetOptions:
 @dataclass
 class _Part:
     name: str
-    level: int  # 0 = proximal (torso, shoulder, hip) ... 3 = fingers
+    level: int  # 0 = torso, 1 = shoulders and hips ... FINGER_LEVEL = fingers
     problem: PartProblem
     targets: list  # (target, source key)
     # Fingers: the source's finger directions in its hand frame when last
@@ -199,7 +200,7 @@ class Retargeter:
         add("torso", 0, self._joints("torso_"), [(Orientation(torso_link, self.rest_frames[torso_frame]), torso_frame)])
         if "head" in self.rest_frames and "head_top" in src:
             head_link = self._link_of("head")
-            add("neck", 1, self._joints("neck_"), [(Orientation(head_link, self.rest_frames["head"]), "head")])
+            add("neck", 2, self._joints("neck_"), [(Orientation(head_link, self.rest_frames["head"]), "head")])
         for side in SIDES:
             s = f"{side}_"
             elbow = self._joints(f"{s}elbow_")
@@ -209,17 +210,17 @@ class Retargeter:
                 bend = (BendPlane(elbow[0], sign), ("bend", f"{s}shoulder", f"{s}elbow", f"{s}wrist"))
             add(
                 f"{s}shoulder",
-                0,
+                1,
                 self._joints(f"{s}shoulder_"),
                 [self._direction(both, f"{s}shoulder", f"{s}elbow"), bend],
             )
-            add(f"{s}elbow", 1, elbow, [self._direction(both, f"{s}elbow", f"{s}wrist")])
+            add(f"{s}elbow", 2, elbow, [self._direction(both, f"{s}elbow", f"{s}wrist")])
             hand = f"{s}hand"
             if hand in self.rest_frames and {f"{s}index_1", f"{s}little_1", hand} <= src:
                 wrist_targets = [(Orientation(self._link_of(hand), self.rest_frames[hand]), hand)]
             else:
                 wrist_targets = [self._direction(both, f"{s}wrist", hand)]
-            add(f"{s}wrist", 2, self._joints(f"{s}wrist_"), wrist_targets)
+            add(f"{s}wrist", 3, self._joints(f"{s}wrist_"), wrist_targets)
             # The finger part: all fingers of one hand in one program.
             model = self.spec.hand_mounts.get(side, ("none",))[0]
             finger_joints, finger_targets = [], []
@@ -233,17 +234,17 @@ class Retargeter:
                     pairs = COUPLED_JOINTS.get(model, {}).get(finger, ())
                     finger_targets += targets + [(Coupling(start + a, start + b), "q") for a, b in pairs]
                     finger_joints += joints
-            add(f"{s}finger", 3, finger_joints, finger_targets)
+            add(f"{s}finger", FINGER_LEVEL, finger_joints, finger_targets)
             knee = self._joints(f"{s}knee_")
             bend = None
             if knee and {f"{s}hip", f"{s}knee", f"{s}ankle"} <= both:
                 sign = self._hinge_sign(knee[0], f"{s}hip", f"{s}knee", f"{s}ankle")
                 bend = (BendPlane(knee[0], sign), ("bend", f"{s}hip", f"{s}knee", f"{s}ankle"))
-            add(f"{s}hip", 0, self._joints(f"{s}hip_"), [self._direction(both, f"{s}hip", f"{s}knee"), bend])
-            add(f"{s}knee", 1, knee, [self._direction(both, f"{s}knee", f"{s}ankle")])
+            add(f"{s}hip", 1, self._joints(f"{s}hip_"), [self._direction(both, f"{s}hip", f"{s}knee"), bend])
+            add(f"{s}knee", 2, knee, [self._direction(both, f"{s}knee", f"{s}ankle")])
             # Ankle to ball of the foot fixes pitch and yaw; roll is not observable
             # from two points, so it stays put (and planted feet are levelled).
-            add(f"{s}ankle", 2, self._joints(f"{s}ankle_"), [self._direction(both, f"{s}ankle", f"{s}toe")])
+            add(f"{s}ankle", 3, self._joints(f"{s}ankle_"), [self._direction(both, f"{s}ankle", f"{s}toe")])
         return sorted(parts, key=lambda p: p.level)
 
     def _direction(self, both: set[str], start: str, end: str):
@@ -333,10 +334,10 @@ class Retargeter:
             pose = None
             largest = 0.0
             for part in self.parts:
-                if part.level == 3 and self._finger_unchanged(part, t, src, src_frames):
+                if part.level == FINGER_LEVEL and self._finger_unchanged(part, t, src, src_frames):
                     continue
                 if part.level != level:  # proximal parts first; fingers need the full tree
-                    groups = None if part.level >= 3 else self._body_groups
+                    groups = None if part.level >= FINGER_LEVEL else self._body_groups
                     pose = self.tree.forward(q, root_rotation, root_position, groups)
                     level = part.level
                 rows = [
