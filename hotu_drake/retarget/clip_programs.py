@@ -283,11 +283,13 @@ class ClipSolver:
         iterations: int,
         moved: dict[int, float] | None = None,
         tolerance: float | None = None,
+        quantile: float = 1.0,
     ) -> dict[int, float]:
         """Relinearise and solve every level in turn (at most `iterations`
         times, until no joint moves more than `tolerance`, by default the
-        options' own), in place on q
-        (T, n); returns each level's last largest step.
+        options' own), in place on q (T, n); returns each level's last step:
+        the `quantile` over frames of each frame's largest joint change (1:
+        the largest of all).
 
         A level that has settled (by its last step, or `moved` from a coarser
         pass) is skipped while the levels it hangs from have too; the
@@ -307,15 +309,16 @@ class ClipSolver:
                 poses = r.tree.forward_frames(q, rotations, positions, groups)
                 parts = self.levels[level]
                 blocks = [(p.problem.joints, self._rows(p, p.problem.joints, fixed, q, poses)) for p in parts]
-                moved[level] = self._step(self.program(level), blocks, q)
+                moved[level] = self._step(self.program(level), blocks, q, quantile)
             if max(moved.values(), default=0.0) < tolerance:
                 break
         return moved
 
-    def _step(self, program: ClipProgram, blocks: list, q: np.ndarray) -> float:
+    def _step(self, program: ClipProgram, blocks: list, q: np.ndarray, quantile: float = 1.0) -> float:
         """One step of `program` in place on q (T, n), from target rows by block
-        of its joints ((joints, rows), in the program's order); the largest
-        joint change, infinite if the solve failed."""
+        of its joints ((joints, rows), in the program's order); the `quantile`
+        over frames of each frame's largest joint change, infinite if the
+        solve failed."""
         k = len(program.joints)
         hessian = np.zeros((self.frames, k, k))
         gradient = np.zeros((self.frames, k))
@@ -326,7 +329,7 @@ class ClipSolver:
             start += len(joints)
         step = program.step(hessian, gradient, q[:, program.joints])
         q[:, program.joints] += step
-        return np.inf if program.failed else float(np.max(np.abs(step)))
+        return np.inf if program.failed else float(np.quantile(np.max(np.abs(step), axis=1), quantile))
 
     def _rows(self, part, joints: list[int], fixed: dict, q: np.ndarray, poses: Pose) -> list:
         """A part's target rows over `joints` for every frame."""
@@ -337,8 +340,10 @@ class ClipSolver:
 
     # --- the feet -------------------------------------------------------------------
 
-    def _lowest(self, q, rotations, positions) -> dict[str, np.ndarray]:
-        poses = self.r.tree.forward_frames(q, rotations, positions, self.r._body_groups)
+    def _poses(self, q, rotations, positions) -> Pose:
+        return self.r.tree.forward_frames(q, rotations, positions, self.r._body_groups)
+
+    def _lowest(self, poses: Pose) -> dict[str, np.ndarray]:
         return {side: self.r.soles.lowest_frames(poses, side) for side in self.r.soles.feet}
 
     def _heights(self, lowest: dict[str, np.ndarray], contacts: dict[str, np.ndarray]) -> np.ndarray:
@@ -365,11 +370,13 @@ class ClipSolver:
         """Root positions (T, 3) that keep planted feet on the floor and where
         they landed; the leg joints of q are corrected in place."""
         r = self.r
-        positions = positions.copy()
-        positions[:, 2] += self._heights(self._lowest(q, rotations, positions), contacts)
+        poses = self._poses(q, rotations, positions)
+        lift = np.zeros((self.frames, 3))
+        lift[:, 2] = self._heights(self._lowest(poses), contacts)
+        positions = positions + lift
         if not self.plants_feet:
             return positions
-        poses = r.tree.forward_frames(q, rotations, positions, r._body_groups)
+        poses = poses.translated(lift[:, None])  # moving the root moves every link alike
         ankles = {side: r.marks.point_jacobian_frames(poses, f"{side}_ankle", [])[0] for side in r._lock}
         anchors = {side: np.full((self.frames, 3), np.nan) for side in r._lock}
         shift = np.zeros((self.frames, 3))
@@ -386,22 +393,24 @@ class ClipSolver:
                 drift = current[planted[0]] - ankles[planted[0]][t]
                 shift[t, :2] = drift[:2]
         positions += shift
-        self._lock_legs(q, rotations, positions, anchors, fixed)
+        self._lock_legs(q, rotations, positions, anchors, fixed, poses.translated(shift[:, None]))
         # The levelled soles: planted ones back on the floor, none below it.
-        positions[:, 2] += self._heights(self._lowest(q, rotations, positions), contacts)
+        positions[:, 2] += self._heights(self._lowest(self._poses(q, rotations, positions)), contacts)
         return positions
 
-    def _lock_legs(self, q, rotations, positions, anchors: dict[str, np.ndarray], fixed: dict) -> None:
+    def _lock_legs(self, q, rotations, positions, anchors: dict[str, np.ndarray], fixed: dict, poses: Pose) -> None:
         """The leg program: the legs' own targets, and over each contact phase
         the planted ankle on its anchor with its sole level; a few
-        relinearisations of one program over both legs."""
+        relinearisations of one program over both legs, the first at `poses`
+        (the body's, at q)."""
         r, program = self.r, self.lock
         leg_parts = {
             side: [p for p in r.parts if p.name in {f"{side}_{n}" for n in ("hip", "knee", "ankle")}] for side in SIDES
         }
         planted = {side: ~np.isnan(anchor[:, 0]) for side, anchor in anchors.items()}
-        for _ in range(r.options.lock_iterations):
-            poses = r.tree.forward_frames(q, rotations, positions, r._body_groups)
+        for iteration in range(r.options.lock_iterations):
+            if iteration:
+                poses = self._poses(q, rotations, positions)
             blocks = []
             for side in (s for s in SIDES if s in r._lock):
                 problem, position, orientation = r._lock[side]
@@ -453,6 +462,7 @@ def retarget_clip(
             _take(fixed, coarse),
             options.clip_iterations,
             tolerance=options.coarse_tolerance,
+            quantile=options.coarse_quantile,
         )
         everywhere = np.arange(frames)
         for j in {j for part in r.parts for j in part.problem.joints}:
