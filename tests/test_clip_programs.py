@@ -53,14 +53,15 @@ def test_a_clip_program_step_is_the_minimiser_of_its_cost(monkeypatch, frames):
         start += size
     gradients = 0.05 * rng.normal(size=(frames, k))
     q = 0.1 * rng.normal(size=(frames, k))
-    program = ClipProgram("test", list(range(k)), -np.full(k, 3.0), np.full(k, 3.0), frames, 1e-3, 0.5, groups)
+    program = ClipProgram(frames, 1e-3, 0.5, groups)
+    limits = -np.full(k, 3.0), np.full(k, 3.0)
     assert len(program._groups) == 2
-    step = program.step(hessians, gradients, q)
+    step = program.step(hessians, gradients, q, *limits)
     expected = _dense_step(hessians, gradients, q, 1e-3, 0.5)
     assert not program.failed and np.max(np.abs(expected)) > 0.01  # a step worth checking
     np.testing.assert_allclose(step, expected, atol=2e-3)
     # A step the trust region cuts short: it reaches the region's edge.
-    big = program.step(hessians, 100.0 * gradients, q)
+    big = program.step(hessians, 100.0 * gradients, q, *limits)
     assert np.max(np.abs(big)) == pytest.approx(0.6, abs=1e-3)
 
 

@@ -41,7 +41,8 @@ if TYPE_CHECKING:
 
 
 class ClipProgram:
-    """The QP of some joints (indices into the embodiment's q) over all frames.
+    """The QP of K joint columns over all frames; which joints, and their
+    limits, come with each step, so levels of one shape can share it.
 
     Variables: dq (T, K). The costs come in blocks of `BLOCK` frames: each
     block's quadratic cost holds its frames' targets and their smoothness
@@ -54,25 +55,14 @@ class ClipProgram:
     BLOCK = 4
     GROUP = 16  # independent groups of columns are merged up to this many
 
-    def __init__(
-        self,
-        name: str,
-        joints: list[int],
-        lower: np.ndarray,
-        upper: np.ndarray,
-        frames: int,
-        regularization: float,
-        smoothness: float,
-        groups: list[int] | None = None,
-    ):
-        self.name, self.joints, self.frames = name, list(joints), frames
-        self.lower, self.upper = np.asarray(lower, float), np.asarray(upper, float)
+    def __init__(self, frames: int, regularization: float, smoothness: float, groups: list[int]):
+        self.frames = frames
         self.regularization, self.smoothness = regularization, smoothness
         self.failed = False  # whether the last step's solve failed
-        k = len(self.joints)
+        k = sum(groups)
         self.program = MathematicalProgram()
         # dq (T, K) in the program's order, column by column (as a matrix of variables would be).
-        self.dq = self.program.NewContinuousVariables(frames * k, f"d{name}").reshape(k, frames).T
+        self.dq = self.program.NewContinuousVariables(frames * k, "dq").reshape(k, frames).T
         # Blocks whose cost reaches into the next frame, and the last one (which cannot).
         starts = np.arange(0, frames, self.BLOCK)
         self._linked = starts[starts + self.BLOCK < frames]
@@ -80,7 +70,7 @@ class ClipProgram:
         # Per group of columns: its blocks' variables, their costs (added at
         # the first step, with its coefficients) and the Hessians' layouts.
         self._groups = []
-        for columns in self._merge(groups or [k]):
+        for columns in self.merge(groups):
             blocks = [
                 self.dq[start : min(start + self.BLOCK + 1, frames), columns].reshape(-1)
                 for start in (*self._linked, self._tail)
@@ -99,11 +89,12 @@ class ClipProgram:
         for option, value in settings.items():
             self._options.SetOption(self._solver.solver_id(), option, value)
 
-    def _merge(self, sizes: list[int]) -> list[slice]:
+    @classmethod
+    def merge(cls, sizes: list[int]) -> list[slice]:
         """Consecutive groups of columns (their `sizes`) merged while they fit in `GROUP`."""
         out, start, width = [], 0, 0
         for size in sizes:
-            if width and width + size > self.GROUP:
+            if width and width + size > cls.GROUP:
                 out.append(slice(start, start + width))
                 start, width = start + width, 0
             width += size
@@ -144,10 +135,13 @@ class ClipProgram:
             vectors[:, i + 1] += s * change[starts + i]
         return matrices.reshape(len(starts), size * k, size * k), 2.0 * vectors.reshape(len(starts), size * k)
 
-    def step(self, hessian: np.ndarray, gradient: np.ndarray, q: np.ndarray) -> np.ndarray:
+    def step(
+        self, hessian: np.ndarray, gradient: np.ndarray, q: np.ndarray, lower: np.ndarray, upper: np.ndarray
+    ) -> np.ndarray:
         """The step (T, K) that minimises the frames' costs dq' H_t dq + 2 g_t' dq
         (`hessian` (T, K, K), `gradient` (T, K)), plus the regularisation and
-        the smoothness of q + dq; `q` (T, K) is the current configuration."""
+        the smoothness of q + dq, within the joint limits (`lower`, `upper`
+        (K,)) and the trust region; `q` (T, K) is the current configuration."""
         frames, k = q.shape
         change = q[1:] - q[:-1]  # the smoothness term's constant: q_t+1 - q_t
         tail = np.array([self._tail])
@@ -164,8 +158,8 @@ class ClipProgram:
                     cost.evaluator().UpdateCoefficients(matrix, vector, 0.0, True)
             else:
                 costs += [self.program.AddQuadraticCost(m, v, x, True) for x, (m, v) in zip(variables, blocks)]
-        low = np.minimum(np.maximum(self.lower - q, -TRUST_REGION), 0.0)
-        high = np.maximum(np.minimum(self.upper - q, TRUST_REGION), 0.0)
+        low = np.minimum(np.maximum(lower - q, -TRUST_REGION), 0.0)
+        high = np.maximum(np.minimum(upper - q, TRUST_REGION), 0.0)
         self._bounds.evaluator().set_bounds(low.reshape(-1), high.reshape(-1))
         result = self._solver.Solve(self.program, None, self._options)
         self.failed = not result.is_success()
@@ -188,7 +182,8 @@ def normal_equations(rows: list) -> tuple[np.ndarray, np.ndarray]:
 
 class ClipSolver:
     """Retargets a whole clip with one `ClipProgram` per level of the tree
-    (and one over both legs for the planted feet)."""
+    (and one over both legs for the planted feet); levels of one shape share
+    a program."""
 
     def __init__(self, retargeter: Retargeter, frames: int):
         self.r = r = retargeter
@@ -197,28 +192,17 @@ class ClipSolver:
         self.levels: dict[int, list] = {}
         for part in r.parts:
             self.levels.setdefault(part.level, []).append(part)
-        self._programs: dict[int, ClipProgram] = {}
+        self._programs: dict[tuple[int, ...], ClipProgram] = {}
         self.plants_feet = bool(r.legged and r._lock and options.lock_feet)
-        self._lock: ClipProgram | None = None
 
     def program(self, level: int) -> ClipProgram:
-        """The program of one level, built when first needed."""
-        if level not in self._programs:
-            parts = self.levels[level]
-            joints = [j for part in parts for j in part.problem.joints]
-            groups = [size for part in parts for size in self._independent(part)]
-            self._programs[level] = self._program(f"level{level}", joints, self.frames, groups)
-        return self._programs[level]
+        """The program of one level."""
+        return self._program([size for part in self.levels[level] for size in self._independent(part)])
 
     @property
     def lock(self) -> ClipProgram:
-        """The legs' program that plants the feet, built when first needed."""
-        if self._lock is None:
-            r = self.r
-            sides = [side for side in SIDES if side in r._lock]
-            joints = [j for side in sides for j in r._lock[side][0].joints]
-            self._lock = self._program("legs", joints, self.frames, [len(r._lock[s][0].joints) for s in sides])
-        return self._lock
+        """The legs' program that plants the feet."""
+        return self._program([len(self.r._lock[side][0].joints) for side in SIDES if side in self.r._lock])
 
     def _independent(self, part) -> list[int]:
         """Sizes of the runs of a part's joints that no target couples: one
@@ -228,18 +212,15 @@ class ClipSolver:
         names = [self.r.tree.joint_names[j].rsplit("_", 1)[0] for j in part.problem.joints]
         return [len(list(run)) for _, run in itertools.groupby(names)]
 
-    def _program(self, name: str, joints: list[int], frames: int, groups: list[int]) -> ClipProgram:
-        emb, options = self.r.embodiment, self.r.options
-        return ClipProgram(
-            name,
-            joints,
-            emb.position_lower[joints],
-            emb.position_upper[joints],
-            frames,
-            options.regularization,
-            options.smoothness,
-            groups,
-        )
+    def _program(self, groups: list[int]) -> ClipProgram:
+        """The program over columns in `groups` (sizes), built when first needed:
+        levels (and the legs) of one shape share it, as each step sets all of
+        its coefficients and bounds."""
+        shape = tuple(columns.stop - columns.start for columns in ClipProgram.merge(groups))
+        if shape not in self._programs:
+            options = self.r.options
+            self._programs[shape] = ClipProgram(self.frames, options.regularization, options.smoothness, groups)
+        return self._programs[shape]
 
     # --- the parts ------------------------------------------------------------------
 
@@ -319,16 +300,18 @@ class ClipSolver:
         of its joints ((joints, rows), in the program's order); the `quantile`
         over frames of each frame's largest joint change, infinite if the
         solve failed."""
-        k = len(program.joints)
+        joints = [j for block_joints, _ in blocks for j in block_joints]
+        k = len(joints)
         hessian = np.zeros((self.frames, k, k))
         gradient = np.zeros((self.frames, k))
         start = 0
-        for joints, rows in blocks:
-            block = slice(start, start + len(joints))
+        for block_joints, rows in blocks:
+            block = slice(start, start + len(block_joints))
             hessian[:, block, block], gradient[:, block] = normal_equations(rows)
-            start += len(joints)
-        step = program.step(hessian, gradient, q[:, program.joints])
-        q[:, program.joints] += step
+            start += len(block_joints)
+        emb = self.r.embodiment
+        step = program.step(hessian, gradient, q[:, joints], emb.position_lower[joints], emb.position_upper[joints])
+        q[:, joints] += step
         return np.inf if program.failed else float(np.quantile(np.max(np.abs(step), axis=1), quantile))
 
     def _rows(self, part, joints: list[int], fixed: dict, q: np.ndarray, poses: Pose) -> list:
