@@ -10,9 +10,9 @@ once. The step dq of the level's joints minimises
       + smooth sum_t |(q + dq)_{t+1} - (q + dq)_t|^2
 
 within the joint limits and a trust region: one Drake `MathematicalProgram`
-per level, built once per clip and solved by OSQP, whose cost coefficients
-and bounds are updated at each relinearisation (sequential convex
-programming). Forward kinematics and Jacobians of all frames are one
+per level (levels of one shape share one), built once per clip and solved
+by OSQP, whose cost coefficients and bounds are set at each
+relinearisation (sequential convex programming). Forward kinematics and Jacobians of all frames are one
 vectorised pass (`Tree.forward_frames`, `Landmarks.*_frames`); the targets
 and parts are the streaming path's own.
 
