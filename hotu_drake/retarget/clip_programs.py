@@ -56,7 +56,6 @@ class ClipProgram:
     GROUP = 16  # independent groups of columns are merged up to this many
 
     def __init__(self, frames: int, regularization: float, smoothness: float, groups: list[int]):
-        self.frames = frames
         self.regularization, self.smoothness = regularization, smoothness
         self.failed = False  # whether the last step's solve failed
         k = sum(groups)
@@ -338,12 +337,14 @@ class ClipSolver:
         # Frame by frame: o_t = max(lift of the planted soles if any, else o_t-1; lift of all soles).
         # Each run from a planted frame to the next is one running maximum.
         lowest_planted = np.where(flags, feet, np.inf).min(axis=1)
+        lift_all = -feet.min(axis=1)  # what keeps every sole above the floor
         start = np.where(planted, -lowest_planted, -np.inf)
         if not planted[0]:
             start[0] = 0.0  # the clip starts without an offset
-        values = np.maximum(start, -feet.min(axis=1))
-        values = np.where(planted | (np.arange(self.frames) == 0), values, -feet.min(axis=1))
-        runs = np.cumsum(planted | (np.arange(self.frames) == 0))
+        opens = planted.copy()
+        opens[0] = True  # frames that start a run: planted ones, and the first
+        values = np.where(opens, np.maximum(start, lift_all), lift_all)
+        runs = np.cumsum(opens)
         span = 1e3 + np.ptp(values)  # lifts of different runs never mix
         return np.maximum.accumulate(values + runs * span) - runs * span
 
