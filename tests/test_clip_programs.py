@@ -216,3 +216,55 @@ def test_finger_tips_without_a_hand_frame_are_left_alone():
     retargeter = Retargeter(embodiment.load("udh", "full"), set(src))
     assert not [part for part in retargeter.parts if part.level == FINGER_LEVEL]
     assert retargeter.retarget_landmarks(src, 120.0).num_frames == 12
+
+
+def test_shape_runs_start_where_the_hand_changes():
+    from hotu_drake.retarget.clip_programs import SHAPE_TOLERANCE, shape_runs
+
+    still = np.ones((100, 6))
+    assert (shape_runs(still) == 0).all()
+    drifting = np.arange(10)[:, None] * np.full((10, 6), 0.4 * SHAPE_TOLERANCE)  # a slow drift still adds up
+    assert shape_runs(drifting).tolist() == [0, 0, 0, 1, 1, 1, 2, 2, 2, 3]
+    moving = np.random.default_rng(0).normal(size=(150, 6))
+    assert shape_runs(moving).tolist() == list(range(150))
+
+
+def _closing_left_index(frames: int, start: int, end: int) -> dict[str, np.ndarray]:
+    """Standing straight with the left index finger bending 1 rad about its
+    base between frames `start` and `end`, then held."""
+    src = _standing_straight(frames)
+    base = src["left_index_1"][0]
+    axis = _unit(src["left_index_1"][0] - src["left_little_1"][0])  # across the knuckles
+    for t, angle in enumerate(np.interp(np.arange(frames), [start, end], [0.0, -1.0])):
+        k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+        turn = np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
+        for i in (2, 3, 4):
+            src[f"left_index_{i}"][t] = base + turn @ (src[f"left_index_{i}"][t] - base)
+    return src
+
+
+def test_fingers_of_one_hand_shape_are_solved_once(monkeypatch):
+    """Frames that keep the hand's shape share one solve of the fingers, and
+    give the fingers the joint paths a solve of every frame gives."""
+    from hotu_drake.retarget import clip_programs
+
+    src = _closing_left_index(64, 16, 32)
+    udh = embodiment.load("udh", "full")
+    solved_frames = []
+    solve_parts = clip_programs.ClipSolver.solve_parts
+
+    def spy(self, *args, levels=None, **kwargs):
+        if levels == [FINGER_LEVEL]:
+            solved_frames.append(self.frames)
+        return solve_parts(self, *args, levels=levels, **kwargs)
+
+    monkeypatch.setattr(clip_programs.ClipSolver, "solve_parts", spy)
+    shared = Retargeter(udh, set(src)).retarget_landmarks(src, 120.0)
+    # The coarse pass's 9 frames (every 8th, and the last) hold 3 shapes: still (0-16), closing (24), closed.
+    assert solved_frames == [3]
+    monkeypatch.setattr(clip_programs, "shape_runs", lambda shapes: np.arange(len(shapes)))
+    every = Retargeter(udh, set(src)).retarget_landmarks(src, 120.0)
+    fingers = [i for i, name in enumerate(shared.joint_names) if "_index_" in name or "_thumb_" in name]
+    bend = shared.joint_positions[:, shared.joint_names.index("left_index_1")]
+    assert bend[-1] - bend[0] > 0.2  # the finger closed
+    np.testing.assert_allclose(shared.joint_positions[:, fingers], every.joint_positions[:, fingers], atol=0.02)

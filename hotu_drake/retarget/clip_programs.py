@@ -39,6 +39,8 @@ from hotu_drake.rotations import heading_rotation, normalize
 if TYPE_CHECKING:
     from hotu_drake.retarget.retargeter import Retargeter
 
+SHAPE_TOLERANCE = 1e-4  # a hand whose finger directions (in its frame) change less keeps its shape
+
 
 class ClipProgram:
     """The QP of K joint columns over all frames; which joints, and their
@@ -264,12 +266,13 @@ class ClipSolver:
         moved: dict[int, float] | None = None,
         tolerance: float | None = None,
         quantile: float = 1.0,
+        levels: list[int] | None = None,
     ) -> dict[int, float]:
-        """Relinearise and solve every level in turn (at most `iterations`
-        times, until no joint moves more than `tolerance`, by default the
-        options' own), in place on q (T, n); returns each level's last step:
-        the `quantile` over frames of each frame's largest joint change (1:
-        the largest of all).
+        """Relinearise and solve the `levels` (by default all) in turn (at
+        most `iterations` times, until no joint moves more than `tolerance`,
+        by default the options' own), in place on q (T, n); returns each
+        level's last step: the `quantile` over frames of each frame's largest
+        joint change (1: the largest of all).
 
         A level that has settled (by its last step, or `moved` from a coarser
         pass) is skipped while the levels it hangs from have too; the
@@ -277,11 +280,12 @@ class ClipSolver:
         nothing but themselves."""
         r = self.r
         tolerance = r.options.tolerance if tolerance is None else tolerance
-        moved = {level: (moved or {}).get(level, np.inf) for level in self.levels}
+        levels = sorted(self.levels if levels is None else levels)
+        moved = {level: (moved or {}).get(level, np.inf) for level in levels}
         for _ in range(iterations):
-            for level in sorted(self.levels):
+            for level in levels:
                 settled = moved[level] < tolerance
-                below = [moved[other] for other in self.levels if other < level and level < FINGER_LEVEL]
+                below = [moved[other] for other in levels if other < level and level < FINGER_LEVEL]
                 if settled and all(m < tolerance for m in below):
                     moved[level] = 0.0
                     continue
@@ -293,6 +297,42 @@ class ClipSolver:
             if max(moved.values(), default=0.0) < tolerance:
                 break
         return moved
+
+    def solve_fingers(
+        self,
+        q: np.ndarray,
+        rotations: np.ndarray,
+        positions: np.ndarray,
+        fixed: dict,
+        iterations: int,
+        tolerance: float | None = None,
+        quantile: float = 1.0,
+    ) -> float:
+        """The fingers' level, in place on q (T, n), as `solve_parts` solves
+        it, but each run of frames that keep one hand shape (`shape_runs`)
+        solved once: the fingers' targets are in the hand's own frame, so
+        frames of one shape have one solution (as the stream keeps a settled
+        hand whose shape did not change). Returns the level's last step."""
+        if FINGER_LEVEL not in self.levels:
+            return 0.0
+        parts = self.levels[FINGER_LEVEL]
+        keys = [key for part in parts for _, key in part.targets if key != "q"]
+        runs = shape_runs(np.concatenate([fixed[key] for key in keys], axis=1))
+        first = np.flatnonzero(np.r_[True, runs[1:] != runs[:-1]])
+        shapes = q[first]
+        moved = ClipSolver(self.r, len(first)).solve_parts(
+            shapes,
+            rotations[first],
+            positions[first],
+            _take(fixed, first),
+            iterations,
+            tolerance=tolerance,
+            quantile=quantile,
+            levels=[FINGER_LEVEL],
+        )
+        joints = [j for part in parts for j in part.problem.joints]
+        q[:, joints] = shapes[runs][:, joints]
+        return moved[FINGER_LEVEL]
 
     def _step(self, program: ClipProgram, blocks: list, q: np.ndarray, quantile: float = 1.0) -> float:
         """One step of `program` in place on q (T, n), from target rows by block
@@ -416,6 +456,26 @@ def _take(fixed: dict, index: np.ndarray) -> dict:
     return {key: value[index] for key, value in fixed.items()}
 
 
+def shape_runs(shapes: np.ndarray, window: int = 64) -> np.ndarray:
+    """The run (0, 1, ...) of each frame of `shapes` (T, m): a run starts at
+    the first frame that differs from the run's first frame by
+    `SHAPE_TOLERANCE` or more in some entry."""
+    runs = np.empty(len(shapes), dtype=int)
+    start, run = 0, 0
+    while start < len(shapes):
+        end = start + 1
+        while end < len(shapes):  # look ahead a window at a time
+            ahead = shapes[end : end + window]
+            changed = np.flatnonzero(np.max(np.abs(ahead - shapes[start]), axis=1) >= SHAPE_TOLERANCE)
+            if len(changed):
+                end += int(changed[0])
+                break
+            end += len(ahead)
+        runs[start:end] = run
+        start, run = end, run + 1
+    return runs
+
+
 def retarget_clip(
     retargeter: Retargeter, src: dict, src_frames: dict, contacts: dict, ratio: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -435,27 +495,24 @@ def retarget_clip(
         q[:, r.base] = base
     solver = ClipSolver(r, frames)
     fixed = solver.source_targets(src, src_frames)
+    body = [level for level in solver.levels if level < FINGER_LEVEL]
     stride = options.coarse_stride
     if stride > 1 and frames >= 4 * stride:
         coarse = np.unique(np.r_[np.arange(0, frames, stride), frames - 1])
-        q_coarse = q[coarse]
-        moved = ClipSolver(r, len(coarse)).solve_parts(
-            q_coarse,
-            rotations[coarse],
-            positions[coarse],
-            _take(fixed, coarse),
-            options.clip_iterations,
-            tolerance=options.coarse_tolerance,
-            quantile=options.coarse_quantile,
-        )
+        q_coarse, on_coarse = q[coarse], (rotations[coarse], positions[coarse], _take(fixed, coarse))
+        coarse_solver, settle = ClipSolver(r, len(coarse)), (options.coarse_tolerance, options.coarse_quantile)
+        coarse_solver.solve_parts(q_coarse, *on_coarse, options.clip_iterations, None, *settle, levels=body)
+        fingers = coarse_solver.solve_fingers(q_coarse, *on_coarse, options.clip_iterations, *settle)
         everywhere = np.arange(frames)
         for j in {j for part in r.parts for j in part.problem.joints}:
             q[:, j] = np.interp(everywhere, coarse, q_coarse[:, j])
-        # Only the fingers may stay as interpolated: their coarse solve settled and waits for no other level.
-        fingers = {FINGER_LEVEL: moved.get(FINGER_LEVEL, np.inf)}
-        solver.solve_parts(q, rotations, positions, fixed, options.fine_iterations, fingers)
+        solver.solve_parts(q, rotations, positions, fixed, options.fine_iterations, levels=body)
+        # The fingers may stay as interpolated: their coarse solve settled and waits for no other level.
+        if fingers >= options.tolerance:
+            solver.solve_fingers(q, rotations, positions, fixed, options.fine_iterations)
     else:
-        solver.solve_parts(q, rotations, positions, fixed, options.clip_iterations)
+        solver.solve_parts(q, rotations, positions, fixed, options.clip_iterations, levels=body)
+        solver.solve_fingers(q, rotations, positions, fixed, options.clip_iterations)
     if r.legged:
         positions = solver.plant_feet(q, rotations, positions, contacts, fixed)
     np.clip(q, r.embodiment.position_lower, r.embodiment.position_upper, out=q)

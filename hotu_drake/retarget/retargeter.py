@@ -25,7 +25,7 @@ from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import landmarks_of
 from hotu_drake.objects import scale_object_poses
 from hotu_drake.retarget import frames
-from hotu_drake.retarget.clip_programs import retarget_clip
+from hotu_drake.retarget.clip_programs import SHAPE_TOLERANCE, retarget_clip
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
 from hotu_drake.retarget.neutral import calibrate, neutral_calibration, thumb_frame_offset
 from hotu_drake.retarget.part_ik import FINGER_LEVEL, PartProblem
@@ -366,7 +366,8 @@ class Retargeter:
                 v = src[key[2]][t] - src[key[1]][t]
                 shape.append(src_frames[key[3]][t].T @ (v / max(np.linalg.norm(v), 1e-9)))
         shape = np.concatenate(shape)
-        unchanged = part.signature is not None and part.settled and np.max(np.abs(shape - part.signature)) < 1e-4
+        same = part.signature is not None and np.max(np.abs(shape - part.signature)) < SHAPE_TOLERANCE
+        unchanged = same and part.settled
         if not unchanged:
             part.signature = shape
         return unchanged
