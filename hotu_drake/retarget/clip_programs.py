@@ -16,11 +16,13 @@ relinearisation (sequential convex programming). Forward kinematics and Jacobian
 vectorised pass (`Tree.forward_frames`, `Landmarks.*_frames`); the targets
 and parts are the streaming path's own.
 
-Planted feet: after the parts, the root height keeps planted soles on the
-floor, the root follows the first planted foot's anchor (left before right, as the
-streaming path does), and one more
-program over both legs holds every planted ankle on its anchor with its sole
-level, over each contact phase.
+Planted feet: the legs are solved by a program of their own over both
+whole legs (hip, knee and ankle joints at once). After the other parts, the
+root height keeps planted soles on the floor, the root follows the first
+planted foot's anchor (left before right, as the streaming path does), and
+the legs' program holds each planted ankle on its anchor with its sole
+level over each contact phase, along with the legs' own targets. (The
+coarse pass solves the legs by level, as the other parts.)
 """
 
 from __future__ import annotations
@@ -40,6 +42,10 @@ if TYPE_CHECKING:
     from hotu_drake.retarget.retargeter import Retargeter
 
 SHAPE_TOLERANCE = 1e-4  # a hand whose finger directions (in its frame) change less keeps its shape
+# The legs' program: weights of a planted ankle's distance (m) from its anchor
+# and of its sole's tilt (rad), against the legs' direction targets (1 each).
+ANCHOR_WEIGHT = 100.0
+LEVEL_WEIGHT = 1.0
 
 
 class ClipProgram:
@@ -186,15 +192,24 @@ class ClipSolver:
     (and one over both legs for the planted feet); levels of one shape share
     a program."""
 
-    def __init__(self, retargeter: Retargeter, frames: int):
+    def __init__(self, retargeter: Retargeter, frames: int, legs: bool = True):
+        """`legs`: whether the levels solve the legs' parts too; if not (and
+        the feet are planted), only the legs' program does."""
         self.r = r = retargeter
         self.frames = frames
-        options = r.options
+        self.plants_feet = bool(r.legged and r._lock and r.options.lock_feet)
+        # The legs' parts, by side, of the legs the legs' program solves (`plant_feet`).
+        self.leg_parts = {
+            side: [p for p in r.parts if p.name in {f"{side}_{n}" for n in ("hip", "knee", "ankle")}]
+            for side in SIDES
+            if side in r._lock
+        }
+        held = set() if legs or not self.plants_feet else {id(p) for parts in self.leg_parts.values() for p in parts}
         self.levels: dict[int, list] = {}
         for part in r.parts:
-            self.levels.setdefault(part.level, []).append(part)
+            if id(part) not in held:
+                self.levels.setdefault(part.level, []).append(part)
         self._programs: dict[tuple[int, ...], ClipProgram] = {}
-        self.plants_feet = bool(r.legged and r._lock and options.lock_feet)
 
     def program(self, level: int) -> ClipProgram:
         """The program of one level."""
@@ -228,23 +243,22 @@ class ClipSolver:
     def source_targets(self, src: dict, src_frames: dict) -> dict:
         """The targets that depend on the source only, per key (all frames)."""
         out = {}
-        for parts in self.levels.values():
-            for part in parts:
-                for _, key in part.targets:
-                    if key == "q" or key in out:
-                        continue
-                    kind = key if isinstance(key, str) else key[0]
-                    if kind == "dir":
-                        direction = normalize(src[key[2]] - src[key[1]], floor=1e-9)
-                        out[key] = self.r.calibrated(key, direction, src, src_frames)
-                    elif kind == "bend":
-                        a, b, c = (src[n] for n in key[1:])
-                        out[key] = np.cross(normalize(b - a, floor=1e-9), normalize(c - b, floor=1e-9))
-                    elif kind == "finger":  # the finger's direction in the source's hand frame
-                        v = normalize(src[key[2]] - src[key[1]], floor=1e-9)
-                        out[key] = np.einsum("tji,tj->ti", src_frames[key[3]], v)
-                    else:
-                        out[key] = src_frames[key]
+        for part in self.r.parts:
+            for _, key in part.targets:
+                if key == "q" or key in out:
+                    continue
+                kind = key if isinstance(key, str) else key[0]
+                if kind == "dir":
+                    direction = normalize(src[key[2]] - src[key[1]], floor=1e-9)
+                    out[key] = self.r.calibrated(key, direction, src, src_frames)
+                elif kind == "bend":
+                    a, b, c = (src[n] for n in key[1:])
+                    out[key] = np.cross(normalize(b - a, floor=1e-9), normalize(c - b, floor=1e-9))
+                elif kind == "finger":  # the finger's direction in the source's hand frame
+                    v = normalize(src[key[2]] - src[key[1]], floor=1e-9)
+                    out[key] = np.einsum("tji,tj->ti", src_frames[key[3]], v)
+                else:
+                    out[key] = src_frames[key]
         return out
 
     def _target(self, key, fixed: dict, q: np.ndarray, poses: Pose) -> np.ndarray:
@@ -428,9 +442,6 @@ class ClipSolver:
         relinearisations of one program over both legs, the first at `poses`
         (the body's, at q)."""
         r, program = self.r, self.lock
-        leg_parts = {
-            side: [p for p in r.parts if p.name in {f"{side}_{n}" for n in ("hip", "knee", "ankle")}] for side in SIDES
-        }
         planted = {side: ~np.isnan(anchor[:, 0]) for side, anchor in anchors.items()}
         for iteration in range(r.options.lock_iterations):
             if iteration:
@@ -443,9 +454,9 @@ class ClipSolver:
                 foot_link = r._link_of(f"{side}_toe")
                 level = heading_rotation(poses.rotations[:, foot_link]) @ r.rest_frames[f"{side}_foot"]
                 target = np.where(planted[side][:, None], anchors[side], 0.0)
-                rows = [row for part in leg_parts[side] for row in self._rows(part, joints, fixed, q, poses)]
-                for goal, targets in ((position, target), (orientation, level)):
-                    jacobian, error, weight = goal.rows_frames(r.marks, poses, joints, targets)
+                rows = [row for part in self.leg_parts[side] for row in self._rows(part, joints, fixed, q, poses)]
+                for goal, targets, weight in ((position, target, ANCHOR_WEIGHT), (orientation, level, LEVEL_WEIGHT)):
+                    jacobian, error, _ = goal.rows_frames(r.marks, poses, joints, targets)
                     rows.append((jacobian, error, weight * mask))
                 blocks.append((joints, rows))
             if self._step(program, blocks, q) < r.options.tolerance:
@@ -484,8 +495,9 @@ def retarget_clip(
 
     Coarse to fine: the programs first converge on every `coarse_stride`-th
     frame from the standing pose; the joint paths interpolated from them
-    start the relinearisations over all frames; then the legs' program
-    plants the feet.
+    start the relinearisations over all frames (the fingers' only if their
+    coarse solve had not settled); then the legs' program solves the legs
+    and plants the feet.
     """
     r, options = retargeter, retargeter.options
     frames = len(next(iter(src.values())))
@@ -493,15 +505,18 @@ def retarget_clip(
     base, rotations, positions = r.root_path(src, src_frames, ratio)
     if base is not None:
         q[:, r.base] = base
-    solver = ClipSolver(r, frames)
+    stride = options.coarse_stride
+    coarse_pass = stride > 1 and frames >= 4 * stride
+    # After a coarse pass, the legs' program alone solves the legs over all frames.
+    solver = ClipSolver(r, frames, legs=not coarse_pass)
     fixed = solver.source_targets(src, src_frames)
     body = [level for level in solver.levels if level < FINGER_LEVEL]
-    stride = options.coarse_stride
-    if stride > 1 and frames >= 4 * stride:
+    if coarse_pass:
         coarse = np.unique(np.r_[np.arange(0, frames, stride), frames - 1])
         q_coarse, on_coarse = q[coarse], (rotations[coarse], positions[coarse], _take(fixed, coarse))
         coarse_solver, settle = ClipSolver(r, len(coarse)), (options.coarse_tolerance, options.coarse_quantile)
-        coarse_solver.solve_parts(q_coarse, *on_coarse, options.clip_iterations, None, *settle, levels=body)
+        coarse_body = [level for level in coarse_solver.levels if level < FINGER_LEVEL]
+        coarse_solver.solve_parts(q_coarse, *on_coarse, options.clip_iterations, None, *settle, levels=coarse_body)
         fingers = coarse_solver.solve_fingers(q_coarse, *on_coarse, options.clip_iterations, *settle)
         everywhere = np.arange(frames)
         for j in {j for part in r.parts for j in part.problem.joints}:
