@@ -268,3 +268,20 @@ def test_fingers_of_one_hand_shape_are_solved_once(monkeypatch):
     bend = shared.joint_positions[:, shared.joint_names.index("left_index_1")]
     assert bend[-1] - bend[0] > 0.2  # the finger closed
     np.testing.assert_allclose(shared.joint_positions[:, fingers], every.joint_positions[:, fingers], atol=0.02)
+
+
+def test_the_coarse_joint_paths_are_interpolated_by_a_cubic_that_keeps_a_parabola():
+    from hotu_drake.retarget.clip_programs import hermite
+
+    knots = np.array([0, 8, 16, 24, 31])  # every 8th frame and the last
+    frames = np.arange(32)
+
+    def parabola(t):
+        return np.stack([0.01 * t**2 - 0.2 * t + 1.0, -0.003 * (t - 10.0) ** 2], axis=1)
+
+    np.testing.assert_allclose(hermite(knots, parabola(knots), frames), parabola(frames), atol=1e-9)
+    wave = np.sin(knots / 5.0)[:, None]
+    curve = hermite(knots, wave, frames)[:, 0]
+    np.testing.assert_allclose(curve[knots], wave[:, 0])  # through the knots
+    linear = np.interp(frames, knots, wave[:, 0])
+    assert np.abs(curve - np.sin(frames / 5.0)).max() < np.abs(linear - np.sin(frames / 5.0)).max()

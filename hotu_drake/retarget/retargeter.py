@@ -13,7 +13,7 @@ the parts and their targets.
 """
 
 import copy
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -36,6 +36,7 @@ from hotu_drake.rotations import heading_rotation, matrix_to_quat
 LOCK_STEPS = 2  # leg-IK steps at most per planted foot and frame
 LOCK_TOLERANCE = 0.002  # m: a planted ankle this close to its anchor is left alone
 LEVEL_TOLERANCE = 0.01  # rad: and a planted sole this close to level
+WRIST_POINTING_WEIGHT = 3.0  # the wrist-to-hand direction's weight beside the hand frame's (1)
 
 
 @dataclass
@@ -220,6 +221,10 @@ class Retargeter:
             hand = f"{s}hand"
             if hand in self.rest_frames and {f"{s}index_1", f"{s}little_1", hand} <= src:
                 wrist_targets = [(Orientation(self._link_of(hand), self.rest_frames[hand]), hand)]
+                # Where the arm cannot reach the whole hand frame, it points the hand first.
+                pointing = self._direction(both, f"{s}wrist", hand)
+                if pointing is not None:
+                    wrist_targets.append((replace(pointing[0], weight=WRIST_POINTING_WEIGHT), pointing[1]))
             else:
                 wrist_targets = [self._direction(both, f"{s}wrist", hand)]
             add(f"{s}wrist", 3, self._joints(f"{s}wrist_"), wrist_targets)
