@@ -61,7 +61,7 @@ class ClipProgram:
     """
 
     BLOCK = 4
-    GROUP = 16  # independent groups of columns are merged up to this many
+    GROUP = 8  # independent groups of columns are merged up to this many (a leg of 7 joints stays apart)
 
     def __init__(self, frames: int, regularization: float, smoothness: float, groups: list[int]):
         self.regularization, self.smoothness = regularization, smoothness

@@ -46,7 +46,7 @@ class RetargetOptions:
     whole_clip: bool = True  # a clip at once (`clip_programs`); False: frame by frame, as a stream does
     clip_iterations: int = 8  # whole clip: at most this many relinearisations of all levels on the coarse frames
     # or until no joint moves more (rad) on this share of the coarse frames; the pass over all frames does the rest
-    coarse_tolerance: float = 0.02
+    coarse_tolerance: float = 0.04
     coarse_quantile: float = 0.99
     coarse_stride: int = 8  # every this many frames of the clip (1: no coarse pass)
     fine_iterations: int = 1  # then over all frames
