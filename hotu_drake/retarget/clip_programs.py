@@ -283,11 +283,12 @@ class ClipSolver:
         quantile: float = 1.0,
         levels: list[int] | None = None,
     ) -> dict[int, float]:
-        """Relinearise and solve the `levels` (by default all) in turn (at
-        most `iterations` times, until no joint moves more than `tolerance`,
-        by default the options' own), in place on q (T, n); returns each
-        level's last step: the `quantile` over frames of each frame's largest
-        joint change (1: the largest of all).
+        """Relinearise and solve the `levels` (by default all but the
+        fingers', which `solve_fingers` solves) in turn (at most `iterations`
+        times, until no joint moves more than `tolerance`, by default the
+        options' own), in place on q (T, n); returns each level's last step:
+        the `quantile` over frames of each frame's largest joint change (1:
+        the largest of all).
 
         A level that has settled (by its last step, or `moved` from a coarser
         pass) is skipped while the levels it hangs from have too; the
@@ -295,7 +296,7 @@ class ClipSolver:
         nothing but themselves."""
         r = self.r
         tolerance = r.options.tolerance if tolerance is None else tolerance
-        levels = sorted(self.levels if levels is None else levels)
+        levels = sorted([level for level in self.levels if level < FINGER_LEVEL] if levels is None else levels)
         moved = {level: (moved or {}).get(level, np.inf) for level in levels}
         for _ in range(iterations):
             for level in levels:
@@ -517,12 +518,12 @@ def retarget_clip(
 
     Coarse to fine: the programs first converge on every `coarse_stride`-th
     frame from the standing pose; the joint paths interpolated from them
-    (cubic, `hermite`)
-    start the relinearisations over all frames (the fingers' only if their
-    coarse solve had not settled); then the legs' program solves the legs
-    and plants the feet.
+    (cubic, `hermite`) start the relinearisations over all frames (the
+    fingers' only if their coarse solve had not settled); then the legs'
+    program solves the legs and plants the feet.
     """
     r, options = retargeter, retargeter.options
+    lower, upper = r.embodiment.position_lower, r.embodiment.position_upper
     frames = len(next(iter(src.values())))
     q = np.tile(r.embodiment.standing_pose, (frames, 1))
     base, rotations, positions = r.root_path(src, src_frames, ratio)
@@ -533,25 +534,24 @@ def retarget_clip(
     # After a coarse pass, the legs' program alone solves the legs over all frames.
     solver = ClipSolver(r, frames, legs=not coarse_pass)
     fixed = solver.source_targets(src, src_frames)
-    body = [level for level in solver.levels if level < FINGER_LEVEL]
     if coarse_pass:
         coarse = np.unique(np.r_[np.arange(0, frames, stride), frames - 1])
         q_coarse, on_coarse = q[coarse], (rotations[coarse], positions[coarse], _take(fixed, coarse))
-        coarse_solver, settle = ClipSolver(r, len(coarse)), (options.coarse_tolerance, options.coarse_quantile)
-        coarse_body = [level for level in coarse_solver.levels if level < FINGER_LEVEL]
-        coarse_solver.solve_parts(q_coarse, *on_coarse, options.clip_iterations, None, *settle, levels=coarse_body)
-        fingers = coarse_solver.solve_fingers(q_coarse, *on_coarse, options.clip_iterations, *settle)
+        settle = {"tolerance": options.coarse_tolerance, "quantile": options.coarse_quantile}
+        coarse_solver = ClipSolver(r, len(coarse))
+        coarse_solver.solve_parts(q_coarse, *on_coarse, options.clip_iterations, **settle)
+        fingers = coarse_solver.solve_fingers(q_coarse, *on_coarse, options.clip_iterations, **settle)
         joints = sorted({j for part in r.parts for j in part.problem.joints})
         q[:, joints] = hermite(coarse, q_coarse[:, joints], np.arange(frames))
-        np.clip(q, r.embodiment.position_lower, r.embodiment.position_upper, out=q)  # a cubic may overshoot
-        solver.solve_parts(q, rotations, positions, fixed, options.fine_iterations, levels=body)
+        np.clip(q, lower, upper, out=q)  # a cubic may overshoot
+        solver.solve_parts(q, rotations, positions, fixed, options.fine_iterations)
         # The fingers may stay as interpolated: their coarse solve settled and waits for no other level.
         if fingers >= options.tolerance:
             solver.solve_fingers(q, rotations, positions, fixed, options.fine_iterations)
     else:
-        solver.solve_parts(q, rotations, positions, fixed, options.clip_iterations, levels=body)
+        solver.solve_parts(q, rotations, positions, fixed, options.clip_iterations)
         solver.solve_fingers(q, rotations, positions, fixed, options.clip_iterations)
     if r.legged:
         positions = solver.plant_feet(q, rotations, positions, contacts, fixed)
-    np.clip(q, r.embodiment.position_lower, r.embodiment.position_upper, out=q)
+    np.clip(q, lower, upper, out=q)
     return q, rotations, positions
