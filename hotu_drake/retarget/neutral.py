@@ -9,7 +9,9 @@ measured in the segment's parent frame (the body frame, pelvis or chest,
 turned by the parent segment's swing away from rest). The retargeting
 matches a source direction d as S C S' d (S that parent frame), so that a
 human standing straight maps to the robot's neutral pose; where the joints
-can match the human, C is the identity and nothing changes. A hinge (an
+can match the human, C is the identity and nothing changes (an offset under
+a degree, as the neutral solve leaves on every robot's thighs, counts as
+none). A hinge (an
 elbow or knee of one joint) bends in its own plane by itself, so only the
 part of C out of that plane (a carrying angle, knock-kneed shins) counts:
 an offset within it is a bend the hinge matches anyway.
@@ -34,6 +36,7 @@ if TYPE_CHECKING:
     from hotu_drake.retarget.retargeter import Retargeter
 
 NEUTRAL_SWEEPS = 40  # passes over the parts that find an embodiment's neutral pose
+SMALLEST_TURN = np.radians(1.0)  # a smaller offset from the human's direction is no calibration
 LEG = ("hip", "knee", "ankle")
 CALIBRATED = ("shoulder", "hip", "knee", "ankle")  # by the segment's start
 # The segment a limb segment hangs from: its start landmark is that segment's end.
@@ -115,6 +118,8 @@ def neutral_calibration(retargeter: Retargeter, source_landmarks: set[str]) -> d
         if key[1] in hinges:  # keep what lies out of the hinge's plane
             axis = body.T @ pose.joint_axes[hinges[key[1]]]
             turn = turn - np.dot(turn, axis) * axis
+        if np.linalg.norm(turn) < SMALLEST_TURN:  # the neutral solve's residual, not the robot's build
+            turn = np.zeros(3)
         parent = ("dir", side + PARENT_SEGMENT[joint], key[1]) if joint in PARENT_SEGMENT else None
         parent_rest = None
         if parent is not None and parent in keys:
