@@ -45,7 +45,7 @@ SHAPE_TOLERANCE = 1e-4  # a hand whose finger directions (in its frame) change l
 # The legs' program: weights of a planted ankle's distance (m) from its anchor
 # and of its sole's tilt (rad), against the legs' direction targets (1 each).
 ANCHOR_WEIGHT = 100.0
-LEVEL_WEIGHT = 1.0
+TILT_WEIGHT = 1.0
 
 
 class ClipProgram:
@@ -92,7 +92,7 @@ class ClipProgram:
         self._solver = OsqpSolver()
         self._options = SolverOptions()
         # A relinearised step needs no more accuracy than this; with rho 0.2
-        # (OSQP's default 0.1) the robots' programs take about 40% fewer iterations.
+        # (OSQP's default 0.1) the robots' programs took 17-44% fewer iterations on CMU 01_01.
         settings = {"verbose": 0, "polishing": 0, "eps_abs": 1e-3, "eps_rel": 1e-3, "check_termination": 10, "rho": 0.2}
         for option, value in settings.items():
             self._options.SetOption(self._solver.solver_id(), option, value)
@@ -458,7 +458,7 @@ class ClipSolver:
                 level = heading_rotation(poses.rotations[:, foot_link]) @ r.rest_frames[f"{side}_foot"]
                 target = np.where(planted[side][:, None], anchors[side], 0.0)
                 rows = [row for part in self.leg_parts[side] for row in self._rows(part, joints, fixed, q, poses)]
-                for goal, targets, weight in ((position, target, ANCHOR_WEIGHT), (orientation, level, LEVEL_WEIGHT)):
+                for goal, targets, weight in ((position, target, ANCHOR_WEIGHT), (orientation, level, TILT_WEIGHT)):
                     jacobian, error, _ = goal.rows_frames(r.marks, poses, joints, targets)
                     rows.append((jacobian, error, weight * mask))
                 blocks.append((joints, rows))
