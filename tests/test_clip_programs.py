@@ -267,6 +267,8 @@ def test_fingers_of_one_hand_shape_are_solved_once(monkeypatch):
     fingers = [i for i, name in enumerate(shared.joint_names) if "_index_" in name or "_thumb_" in name]
     bend = shared.joint_positions[:, shared.joint_names.index("left_index_1")]
     assert bend[-1] - bend[0] > 0.2  # the finger closed
+    # and between still and closed it neither swings back nor past the held shapes
+    assert bend.min() >= bend[0] - 1e-3 and bend.max() <= bend[-1] + 1e-3
     np.testing.assert_allclose(shared.joint_positions[:, fingers], every.joint_positions[:, fingers], atol=0.02)
 
 
@@ -285,3 +287,16 @@ def test_the_coarse_joint_paths_are_interpolated_by_a_cubic_that_keeps_a_parabol
     np.testing.assert_allclose(curve[knots], wave[:, 0])  # through the knots
     linear = np.interp(frames, knots, wave[:, 0])
     assert np.abs(curve - np.sin(frames / 5.0)).max() < np.abs(linear - np.sin(frames / 5.0)).max()
+
+
+@pytest.mark.parametrize("lock_iterations", [0, 1])
+def test_the_legs_are_left_to_the_legs_program_only_when_it_runs(lock_iterations):
+    from hotu_drake.retarget.clip_programs import ClipSolver
+
+    options = RetargetOptions(lock_iterations=lock_iterations)
+    retargeter = Retargeter(embodiment.load("h1", "none"), set(LANDMARKS), options)
+    legs = {id(part) for parts in ClipSolver(retargeter, 64).leg_parts.values() for part in parts}
+    assert len(legs) == 6  # hip, knee and ankle of both legs
+    levels = ClipSolver(retargeter, 64, legs=False).levels
+    kept = {id(part) for parts in levels.values() for part in parts}
+    assert (legs <= kept) == (lock_iterations == 0)

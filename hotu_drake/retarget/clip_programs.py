@@ -16,13 +16,14 @@ relinearisation (sequential convex programming). Forward kinematics and Jacobian
 vectorised pass (`Tree.forward_frames`, `Landmarks.*_frames`); the targets
 and parts are the streaming path's own.
 
-Planted feet: the legs are solved by a program of their own over both
-whole legs (hip, knee and ankle joints at once). After the other parts, the
-root height keeps planted soles on the floor, the root follows the first
-planted foot's anchor (left before right, as the streaming path does), and
-the legs' program holds each planted ankle on its anchor with its sole
-level over each contact phase, along with the legs' own targets. (The
-coarse pass solves the legs by level, as the other parts.)
+Planted feet: over all frames the legs are solved by a program of their
+own over both whole legs (hip, knee and ankle joints at once; the coarse
+pass, and a clip too short for one, solve them by level first). After the
+other parts, the root height keeps planted soles on the floor, the root
+follows the first planted foot's anchor (left before right, as the
+streaming path does), and the legs' program holds each planted ankle on
+its anchor with its sole level over each contact phase, along with the
+legs' own targets.
 """
 
 from __future__ import annotations
@@ -195,7 +196,7 @@ class ClipSolver:
 
     def __init__(self, retargeter: Retargeter, frames: int, legs: bool = True):
         """`legs`: whether the levels solve the legs' parts too; if not (and
-        the feet are planted), only the legs' program does."""
+        the legs' program runs, planting the feet), only that program does."""
         self.r = r = retargeter
         self.frames = frames
         self.plants_feet = bool(r.legged and r._lock and r.options.lock_feet)
@@ -205,7 +206,8 @@ class ClipSolver:
             for side in SIDES
             if side in r._lock
         }
-        held = set() if legs or not self.plants_feet else {id(p) for parts in self.leg_parts.values() for p in parts}
+        solved_by_legs_program = self.plants_feet and r.options.lock_iterations > 0
+        held = set() if legs or not solved_by_legs_program else {id(p) for ps in self.leg_parts.values() for p in ps}
         self.levels: dict[int, list] = {}
         for part in r.parts:
             if id(part) not in held:
@@ -278,7 +280,6 @@ class ClipSolver:
         positions: np.ndarray,
         fixed: dict,
         iterations: int,
-        moved: dict[int, float] | None = None,
         tolerance: float | None = None,
         quantile: float = 1.0,
         levels: list[int] | None = None,
@@ -290,14 +291,13 @@ class ClipSolver:
         the `quantile` over frames of each frame's largest joint change (1:
         the largest of all).
 
-        A level that has settled (by its last step, or `moved` from a coarser
-        pass) is skipped while the levels it hangs from have too; the
-        fingers' targets are in the hand's own frame, so they wait for
-        nothing but themselves."""
+        A level that has settled by its last step is skipped while the
+        levels it hangs from have too; the fingers' targets are in the hand's
+        own frame, so they wait for nothing but themselves."""
         r = self.r
         tolerance = r.options.tolerance if tolerance is None else tolerance
         levels = sorted([level for level in self.levels if level < FINGER_LEVEL] if levels is None else levels)
-        moved = {level: (moved or {}).get(level, np.inf) for level in levels}
+        moved = dict.fromkeys(levels, np.inf)
         for _ in range(iterations):
             for level in levels:
                 settled = moved[level] < tolerance
@@ -329,7 +329,7 @@ class ClipSolver:
         solved once: the fingers' targets are in the hand's own frame, so
         frames of one shape have one solution (as the stream keeps a settled
         hand whose shape did not change). Returns the level's last step."""
-        if FINGER_LEVEL not in self.levels:
+        if FINGER_LEVEL not in self.levels or not len(q):
             return 0.0
         parts = self.levels[FINGER_LEVEL]
         keys = [key for part in parts for _, key in part.targets if key != "q"]
@@ -541,9 +541,13 @@ def retarget_clip(
         coarse_solver = ClipSolver(r, len(coarse))
         coarse_solver.solve_parts(q_coarse, *on_coarse, options.clip_iterations, **settle)
         fingers = coarse_solver.solve_fingers(q_coarse, *on_coarse, options.clip_iterations, **settle)
-        joints = sorted({j for part in r.parts for j in part.problem.joints})
-        q[:, joints] = hermite(coarse, q_coarse[:, joints], np.arange(frames))
-        np.clip(q, lower, upper, out=q)  # a cubic may overshoot
+        everywhere = np.arange(frames)
+        body = sorted({j for part in r.parts if part.level < FINGER_LEVEL for j in part.problem.joints})
+        q[:, body] = hermite(coarse, q_coarse[:, body], everywhere)
+        np.clip(q, lower, upper, out=q)  # a cubic may overshoot; the pass over all frames takes it back
+        # The fingers linearly: a settled hand is not solved again, and a cubic would overshoot a held shape.
+        for j in {j for part in r.parts if part.level == FINGER_LEVEL for j in part.problem.joints}:
+            q[:, j] = np.interp(everywhere, coarse, q_coarse[:, j])
         solver.solve_parts(q, rotations, positions, fixed, options.fine_iterations)
         # The fingers may stay as interpolated: their coarse solve settled and waits for no other level.
         if fingers >= options.tolerance:

@@ -119,7 +119,7 @@ def neutral_calibration(retargeter: Retargeter, source_landmarks: set[str]) -> d
             axis = body.T @ pose.joint_axes[hinges[key[1]]]
             turn = turn - np.dot(turn, axis) * axis
         if np.linalg.norm(turn) < SMALLEST_TURN:  # the neutral solve's residual, not the robot's build
-            turn = np.zeros(3)
+            continue
         parent = ("dir", side + PARENT_SEGMENT[joint], key[1]) if joint in PARENT_SEGMENT else None
         parent_rest = None
         if parent is not None and parent in keys:

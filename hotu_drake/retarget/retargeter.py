@@ -44,13 +44,15 @@ class RetargetOptions:
     """Knobs of the whole-clip and the per-frame solves."""
 
     whole_clip: bool = True  # a clip at once (`clip_programs`); False: frame by frame, as a stream does
-    clip_iterations: int = 8  # whole clip: at most this many relinearisations of all levels on the coarse frames
-    # or until no joint moves more (rad) on this share of the coarse frames; the pass over all frames does the rest
+    # Whole clip: at most this many relinearisations of all levels on the coarse frames (or on all frames
+    # of a clip too short for a coarse pass), or until no joint moves more (rad) on this share of the
+    # coarse frames; the pass over all frames does the rest.
+    clip_iterations: int = 8
     coarse_tolerance: float = 0.04
     coarse_quantile: float = 0.99
     coarse_stride: int = 8  # every this many frames of the clip (1: no coarse pass)
-    fine_iterations: int = 1  # then over all frames
-    lock_iterations: int = 1  # and of the legs' program that plants the feet
+    fine_iterations: int = 1  # then over all frames, of the levels but the legs'
+    lock_iterations: int = 1  # and of the legs' program, which solves the legs and plants the feet
     sweeps: int = 2  # at most this many passes over all parts per frame (30 fps)
     high_rate_sweeps: int = 1  # the same at 60 fps or more, where frames are close
     tolerance: float = 2e-3  # stop the passes once no joint moves more (rad)
