@@ -14,9 +14,6 @@ from collections.abc import Callable
 
 from hotu_drake.errors import InputError
 
-# The command lines' name for the project's bad-input error.
-UserError = InputError
-
 EXIT_BAD_INPUT = 2
 EXIT_INTERNAL = 70  # sysexits' EX_SOFTWARE
 
@@ -25,7 +22,7 @@ class ArgumentParser(argparse.ArgumentParser):
     """An argparse parser whose usage errors are one `error:` line (exit 2)."""
 
     def error(self, message: str):
-        raise UserError(f"{self.prog}: {message} (see --help)")
+        raise InputError(f"{self.prog}: {message} (see --help)")
 
 
 def positive_float(text: str) -> float:

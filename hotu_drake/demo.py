@@ -17,7 +17,8 @@ import sys
 from pathlib import Path
 
 from hotu_drake import embodiment
-from hotu_drake.cli import ArgumentParser, UserError, run_cli
+from hotu_drake.cli import ArgumentParser, run_cli
+from hotu_drake.errors import InputError
 from hotu_drake.gallery import write_gallery
 from hotu_drake.models import dof_table, format_table
 from hotu_drake.motion.library import generate
@@ -33,7 +34,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
-        raise UserError(f"{out}: is a file; give a folder")
+        raise InputError(f"{out}: is a file; give a folder")
 
     print("Functional-part DoF of the six embodiments (full hands):")
     print(format_table(dof_table("full")))

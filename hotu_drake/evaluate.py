@@ -40,8 +40,8 @@ from pathlib import Path
 
 import numpy as np
 
-from hotu_drake.cli import ArgumentParser, UserError, run_cli
-from hotu_drake.errors import check_number
+from hotu_drake.cli import ArgumentParser, run_cli
+from hotu_drake.errors import InputError, check_number
 from hotu_drake.io import check_output_path, write_text_atomic
 
 LEGGED = ("udh", "naviai", "h1", "bruce", "walker")  # CURI rolls on a wheeled base
@@ -67,20 +67,20 @@ class Run:
 
 
 def read_run(path: str | Path, need_report: bool = True, reevaluate: bool = False, episodes: int | None = None) -> Run:
-    """A run folder's settings, report and metrics; `UserError` naming the
+    """A run folder's settings, report and metrics; `InputError` naming the
     folder and what is wrong if it cannot be read. A run with a training
     checkpoint and no report (or `reevaluate`) is evaluated first."""
     run = Path(path)
     if not run.is_dir():
-        raise UserError(f"{run}: not a run folder (no such folder)")
+        raise InputError(f"{run}: not a run folder (no such folder)")
     try:
         settings = json.loads((run / "run.json").read_text())
     except FileNotFoundError:
-        raise UserError(f"{run}: not a run folder (no run.json)") from None
+        raise InputError(f"{run}: not a run folder (no run.json)") from None
     except (OSError, ValueError) as error:
-        raise UserError(f"{run}: run.json cannot be read ({str(error).splitlines()[0][:100]})") from None
+        raise InputError(f"{run}: run.json cannot be read ({str(error).splitlines()[0][:100]})") from None
     if not isinstance(settings, dict) or "robot" not in settings or "algo" not in settings:
-        raise UserError(f"{run}: run.json is not a training run's settings (no robot and algo)")
+        raise InputError(f"{run}: run.json is not a training run's settings (no robot and algo)")
     report_file = run / "report.json"
     if (reevaluate or not report_file.is_file()) and (run / "checkpoint.pt").is_file() and need_report:
         _evaluate(run, settings, episodes)
@@ -89,9 +89,9 @@ def read_run(path: str | Path, need_report: bool = True, reevaluate: bool = Fals
         try:
             report = json.loads(report_file.read_text())
         except ValueError as error:
-            raise UserError(f"{report_file}: not valid JSON ({str(error)[:80]})") from None
+            raise InputError(f"{report_file}: not valid JSON ({str(error)[:80]})") from None
     elif need_report:
-        raise UserError(f"{run}: no report.json and no checkpoint.pt to evaluate")
+        raise InputError(f"{run}: no report.json and no checkpoint.pt to evaluate")
     return Run(run, settings, report, _metrics(run))
 
 
@@ -112,7 +112,7 @@ def _metrics(run: Path) -> list[dict] | None:
                 with opener(file, "rt") as stream:
                     return [json.loads(line) for line in stream if line.strip()]
             except (OSError, ValueError, EOFError) as error:
-                raise UserError(f"{file}: cannot be read ({str(error).splitlines()[0][:100]})") from None
+                raise InputError(f"{file}: cannot be read ({str(error).splitlines()[0][:100]})") from None
     return None
 
 
@@ -165,11 +165,11 @@ def primitives_table(runs: list[Run]) -> tuple[list[str], list[list]]:
     rows = []
     for run in runs:
         if run.settings.get("command") in ("skill", "finetune"):
-            raise UserError(f"{run.path}: a skill run; Table II takes behavior runs (train pretrain)")
+            raise InputError(f"{run.path}: a skill run; Table II takes behavior runs (train pretrain)")
         evaluation = run.report.get("evaluation", {})
         policy, standing = evaluation.get("policy"), evaluation.get("standing")
         if policy is None or standing is None:
-            raise UserError(f"{run.path}/report.json: no policy and standing evaluation (not a behavior report)")
+            raise InputError(f"{run.path}/report.json: no policy and standing evaluation (not a behavior report)")
         for motion, figures in policy.get("motions", {}).items():
             rows.append(
                 [
@@ -227,7 +227,7 @@ def skills_table(runs: list[Run]) -> tuple[list[str], list[list], list[str]]:
     transfers: dict[str, int] = {}
     for run in runs:
         if run.settings.get("command") not in ("skill", "finetune"):
-            raise UserError(f"{run.path}: a behavior run; Table III takes train skill and train finetune runs")
+            raise InputError(f"{run.path}: a behavior run; Table III takes train skill and train finetune runs")
         if run.settings["command"] == "finetune":
             transfers[run.settings["skill"]] = transfers.get(run.settings["skill"], 0) + 1
     rows, hours = [], {}
@@ -294,9 +294,9 @@ def ablation_figure(runs: list[Run], out: Path, smooth: int = 10) -> None:
     robots: dict[str, list[Run]] = {}
     for run in runs:
         if not run.metrics:
-            raise UserError(f"{run.path}: no metrics.jsonl to draw")
+            raise InputError(f"{run.path}: no metrics.jsonl to draw")
         if run.settings.get("command") in ("skill", "finetune"):
-            raise UserError(f"{run.path}: a skill run; the ablation compares behavior runs")
+            raise InputError(f"{run.path}: a skill run; the ablation compares behavior runs")
         robots.setdefault(run.settings["robot"], []).append(run)
     plt = _pyplot("ablation")
     figure, axes = plt.subplots(1, len(robots), figsize=(5 * len(robots), 3.5), squeeze=False)
@@ -304,7 +304,7 @@ def ablation_figure(runs: list[Run], out: Path, smooth: int = 10) -> None:
         for run in group:
             points = np.array([(r["samples"], r["style"]) for r in run.metrics if r.get("style") is not None])
             if len(points) == 0:
-                raise UserError(f"{run.path}: no style reward in its metrics")
+                raise InputError(f"{run.path}: no style reward in its metrics")
             window = min(smooth, len(points))
             y = np.convolve(points[:, 1], np.ones(window) / window, mode="valid")
             decomposed = run.settings["algo"] == "dail"
@@ -365,9 +365,9 @@ def perturbation_test(runs: list[Run], momenta: list[float], directions: int, ou
 
     for run in runs:
         if run.settings["robot"] not in LEGGED:
-            raise UserError(f"{run.path}: {run.settings['robot']} has no legs to knock over (legged: {LEGGED})")
+            raise InputError(f"{run.path}: {run.settings['robot']} has no legs to knock over (legged: {LEGGED})")
         if run.settings.get("command") in ("skill", "finetune") or not (run.path / "policy.pt").is_file():
-            raise UserError(f"{run.path}: not a behavior run with a policy.pt")
+            raise InputError(f"{run.path}: not a behavior run with a policy.pt")
     out.mkdir(parents=True, exist_ok=True)
     rows = []
     for run in runs:
@@ -449,7 +449,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "ablation":
         check_output_path(out)
         if out.suffix != ".png":
-            raise UserError(f"{out}: the ablation figure is a .png file")
+            raise InputError(f"{out}: the ablation figure is a .png file")
         ablation_figure([read_run(r, need_report=False) for r in args.runs], out)
         return 0
     check_output_path(out, folder=True)
@@ -475,9 +475,9 @@ def _momenta(text: str) -> list[float]:
     try:
         values = [float(v) for v in text.split(",") if v.strip()]
     except ValueError:
-        raise UserError(f"--momenta {text!r}: give comma-separated numbers (kg m/s)") from None
+        raise InputError(f"--momenta {text!r}: give comma-separated numbers (kg m/s)") from None
     if not values or any(not np.isfinite(v) or v < 0 or v > 1000 for v in values):
-        raise UserError(f"--momenta {text!r}: give one or more momenta between 0 and 1000 kg m/s")
+        raise InputError(f"--momenta {text!r}: give one or more momenta between 0 and 1000 kg m/s")
     return values
 
 

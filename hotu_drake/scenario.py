@@ -25,7 +25,6 @@ from pydrake.common.yaml import yaml_dump, yaml_dump_typed, yaml_load, yaml_load
 from pydrake.multibody.plant import MultibodyPlantConfig
 from pydrake.visualization import VisualizationConfig
 
-from hotu_drake.cli import UserError
 from hotu_drake.embodiment import EMBODIMENT_NAMES, HANDS_VARIANTS
 from hotu_drake.errors import InputError, check_bool, check_choice, check_number, check_vector
 from hotu_drake.objects import OBJECTS, SceneObject
@@ -408,11 +407,11 @@ def _read_raw(path: Path) -> dict:
     try:
         raw = yaml_load(filename=str(path))
     except Exception as error:  # the YAML reader raises many kinds
-        raise UserError(f"{path}: not valid YAML ({_first_line(error)})") from None
+        raise InputError(f"{path}: not valid YAML ({_first_line(error)})") from None
     if raw is None:
         return {}
     if not isinstance(raw, dict):
-        raise UserError(f"{path}: a scenario file holds a mapping of fields (or of named scenarios)")
+        raise InputError(f"{path}: a scenario file holds a mapping of fields (or of named scenarios)")
     return raw
 
 
@@ -443,7 +442,7 @@ def shipped_scenarios() -> dict[str, Path]:
 def load_scenario(path: str | Path, name: str | None = None) -> Scenario:
     """Read a scenario: a file (one scenario, or a catalogue and the `name`
     of one of its entries), or the name of a shipped scenario. A bad file
-    raises `UserError` naming it."""
+    raises `InputError` naming it."""
     path = Path(path)
     if not path.is_file():
         shipped = shipped_scenarios()
@@ -453,12 +452,12 @@ def load_scenario(path: str | Path, name: str | None = None) -> Scenario:
             name = path.stem if moved else str(path)
             path = shipped[name]
         elif path.stem in shipped and path.suffix in ("", ".yaml"):
-            raise UserError(
+            raise InputError(
                 f"{path}: no such scenario file; the shipped scenario '{path.stem}' lives in "
                 f"{shipped[path.stem].name} (give its name: {path.stem})"
             )
         else:
-            raise UserError(f"{path}: no such scenario file (nor the name of a shipped scenario)")
+            raise InputError(f"{path}: no such scenario file (nor the name of a shipped scenario)")
     raw = _read_raw(path)
     where = str(path)
     if is_catalogue(raw):
@@ -467,12 +466,12 @@ def load_scenario(path: str | Path, name: str | None = None) -> Scenario:
             name = names[0]
         if name not in names:
             wanted = "give one of" if name is None else f"no scenario '{name}'; choose from"
-            raise UserError(f"{path}: {wanted} {', '.join(names)}")
+            raise InputError(f"{path}: {wanted} {', '.join(names)}")
         raw, where = raw[name], f"{path} ({name})"
         if not isinstance(raw, dict):
-            raise UserError(f"{where}: a scenario is a mapping of fields")
+            raise InputError(f"{where}: a scenario is a mapping of fields")
     elif name is not None and name != path.stem:
-        raise UserError(f"{path}: holds one scenario, not a catalogue with '{name}'")
+        raise InputError(f"{path}: holds one scenario, not a catalogue with '{name}'")
     try:
         if _is_legacy(raw):
             data, driver = _upgrade_legacy(raw)
@@ -483,8 +482,8 @@ def load_scenario(path: str | Path, name: str | None = None) -> Scenario:
         found = _mistyped(raw, Scenario())
         if found is not None:
             field, value, kind = found
-            raise UserError(f"{value!r} is not {kind}", where, field) from None
-        raise UserError(f"{where}: not a valid scenario ({_first_line(error)})") from None
+            raise InputError(f"{value!r} is not {kind}", where, field) from None
+        raise InputError(f"{where}: not a valid scenario ({_first_line(error)})") from None
     scenario.base_dir = str(path.resolve().parent)
     scenario.source = where
     scenario.validate(where)

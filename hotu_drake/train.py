@@ -43,9 +43,9 @@ import numpy as np
 import torch
 import yaml
 
-from hotu_drake.cli import ArgumentParser, UserError, run_cli
+from hotu_drake.cli import ArgumentParser, run_cli
 from hotu_drake.embodiment import EMBODIMENT_NAMES, HANDS_VARIANTS
-from hotu_drake.errors import check_choice, check_number
+from hotu_drake.errors import InputError, check_choice, check_number
 from hotu_drake.io import atomic_output, check_output_path, write_text_atomic
 from hotu_drake.learning.checkpoint import read_checkpoint, save_checkpoint
 from hotu_drake.learning.config import ALGORITHMS, TrainConfig, config_from_dict, load_config, preset
@@ -133,19 +133,19 @@ def _settings(args) -> tuple[dict, TrainConfig]:
         for name in ("robot", "hands", "algo"):
             given = getattr(args, name)
             if given is not None and given != settings[name]:
-                raise UserError(f"--{name} {given!r}: the run in {out} has {settings[name]!r}")
+                raise InputError(f"--{name} {given!r}: the run in {out} has {settings[name]!r}")
         if args.motions is not None and _motions(args.motions) != settings["motions"]:
-            raise UserError(f"--motions: the run in {out} has {','.join(settings['motions'])}")
+            raise InputError(f"--motions: the run in {out} has {','.join(settings['motions'])}")
         if args.config:
-            raise UserError(f"--config: the run in {out} keeps its configuration (config.yaml)")
+            raise InputError(f"--config: the run in {out} keeps its configuration (config.yaml)")
         config = config_from_dict(checkpoint["meta"]["config"], where=str(out / "checkpoint.pt"))
         settings["workers"] = args.workers or settings.get("workers", 2)
         return settings, config
     if (out / "checkpoint.pt").exists() or (out / "run.json").exists():
-        raise UserError(f"{out}: a run is already here (add --resume to continue it, or choose another --out)")
+        raise InputError(f"{out}: a run is already here (add --resume to continue it, or choose another --out)")
     check_output_path(out, folder=True)
     if not args.robot or not args.motions:
-        raise UserError("pretrain needs --robot and --motions (or --resume with --out of a run)")
+        raise InputError("pretrain needs --robot and --motions (or --resume with --out of a run)")
     robot = check_choice(args.robot, "--robot", EMBODIMENT_NAMES)
     hands = check_choice(args.hands or "none", "--hands", HANDS_VARIANTS)
     algo = check_choice(args.algo or "dail", "--algo", ALGORITHMS)
@@ -176,7 +176,7 @@ def check_run_arguments(args) -> Path:
 def resumed_run(out: Path) -> tuple[dict, dict]:
     """The settings and last training checkpoint of the run to resume in `out`."""
     if not (out / "checkpoint.pt").is_file() or not (out / "run.json").is_file():
-        raise UserError(f"{out}: no run to resume here (no checkpoint.pt and run.json)")
+        raise InputError(f"{out}: no run to resume here (no checkpoint.pt and run.json)")
     return json.loads((out / "run.json").read_text()), read_checkpoint(out / "checkpoint.pt", kind="training")
 
 
@@ -184,7 +184,7 @@ def _motions(text: str) -> list[str]:
     """Library names as given, clip paths made absolute (worker processes may start elsewhere)."""
     motions = [m.strip() for m in text.split(",") if m.strip()]
     if not motions:
-        raise UserError("--motions: give at least one motion")
+        raise InputError("--motions: give at least one motion")
     return [str(Path(m).resolve()) if m.endswith(".npz") else m for m in motions]
 
 
@@ -332,7 +332,7 @@ def _run_folder(path: str) -> Path:
     """`path` as a run folder: one with a training checkpoint and its settings."""
     run = Path(path)
     if not (run / "checkpoint.pt").is_file() or not (run / "run.json").is_file():
-        raise UserError(f"{run}: not a run folder (no checkpoint.pt and run.json)")
+        raise InputError(f"{run}: not a run folder (no checkpoint.pt and run.json)")
     return run
 
 
@@ -409,13 +409,13 @@ def plot_command(args) -> int:
     curves = {}
     for run in map(Path, args.runs):
         if not (run / "metrics.jsonl").is_file():
-            raise UserError(f"{run}: not a run folder (no metrics.jsonl)")
+            raise InputError(f"{run}: not a run folder (no metrics.jsonl)")
         rows = [r for r in read_metrics(run / "metrics.jsonl") if "samples_per_second" in r]
         settings = json.loads((run / "run.json").read_text()) if (run / "run.json").is_file() else {}
         curves[f"{run.name} ({settings.get('algo', '?')})"] = rows
     for key in keys:  # a run without a metric (D_I's reward of a one-level skill) is left out of its panel
         if not any(key in r for rows in curves.values() for r in rows):
-            raise UserError(f"{', '.join(args.runs)}: no metric {key!r}")
+            raise InputError(f"{', '.join(args.runs)}: no metric {key!r}")
     plt = _pyplot("plot")
     figure, axes = plt.subplots(len(keys), 1, figsize=(7, 3 * len(keys)), squeeze=False)
     for ax, key in zip(axes[:, 0], keys):
@@ -443,7 +443,7 @@ def _pyplot(command: str):
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
-        raise UserError(f"{command} needs matplotlib (pip install matplotlib)") from None
+        raise InputError(f"{command} needs matplotlib (pip install matplotlib)") from None
     return plt
 
 
@@ -465,7 +465,7 @@ def trace_command(args) -> int:
 
     run, out = _run_folder(args.run), check_output_path(Path(args.out))
     if train_skill.is_skill_run(run):
-        raise UserError(f"{run}: a skill run; trace draws a behavior run's joints (evaluate writes a skill's episode)")
+        raise InputError(f"{run}: a skill run; trace draws a behavior run's joints (evaluate writes a skill's episode)")
     check_number(args.seed, "--seed", low=0, high=2**31 - 1, integer=True)
     plt = _pyplot("trace")
     settings, checkpoint, config = _read_run(run)
@@ -473,7 +473,7 @@ def trace_command(args) -> int:
     parts = [p.strip() for p in args.parts.split(",") if p.strip()]
     for part in parts:
         if part not in demos.part_joints:
-            raise UserError(f"--parts: {settings['robot']} has no part {part!r} (has: {', '.join(demos.part_joints)})")
+            raise InputError(f"--parts: {settings['robot']} has no part {part!r} (has: {', '.join(demos.part_joints)})")
     envs = _vector_env(settings, config, 1, None, evaluation=True)
     try:
         agent = Agent(config, envs, demos, action_offset=standing, seed=args.seed)
@@ -501,7 +501,7 @@ def trace_command(args) -> int:
         if np.ptp(np.concatenate([r[:, j] for r in references.values()])) >= args.min_range
     ]
     if not joints:
-        raise UserError(f"--parts: the references move none of {args.parts}'s joints by {args.min_range} degrees")
+        raise InputError(f"--parts: the references move none of {args.parts}'s joints by {args.min_range} degrees")
     rate = demos.control_rate
     figure, axes = plt.subplots(len(joints), 2, figsize=(10, 1.5 * len(joints) + 0.6), sharex="col", squeeze=False)
     for row, j in zip(axes, joints):

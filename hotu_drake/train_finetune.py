@@ -32,9 +32,8 @@ import json
 import shutil
 from pathlib import Path
 
-from hotu_drake.cli import UserError
 from hotu_drake.embodiment import EMBODIMENT_NAMES
-from hotu_drake.errors import check_number
+from hotu_drake.errors import InputError, check_number
 from hotu_drake.io import check_output_path
 from hotu_drake.learning.skill_config import TWO_LEVEL, finetune_preset, load_skill_config
 from hotu_drake.train import add_run_arguments, check_run_arguments
@@ -90,10 +89,10 @@ def _new_run(args) -> tuple[dict, object]:
 
     out = check_run_arguments(args)
     if (out / "checkpoint.pt").exists() or (out / "run.json").exists():
-        raise UserError(f"{out}: a run is already here (add --resume to continue it, or choose another --out)")
+        raise InputError(f"{out}: a run is already here (add --resume to continue it, or choose another --out)")
     check_output_path(out, folder=True)
     if not args.skill or not args.llc:
-        raise UserError("finetune needs --skill (the UDH skill run) and --llc (the robot's behavior run)")
+        raise InputError("finetune needs --skill (the UDH skill run) and --llc (the robot's behavior run)")
     for name in ("references", "eval_references"):
         check_number(getattr(args, name), f"--{name.replace('_', '-')}", "finetune", low=1, high=1000, integer=True)
     skill = Path(args.skill)
@@ -123,12 +122,12 @@ def _skill_settings(skill: Path) -> dict:
     try:
         settings = json.loads((skill / "run.json").read_text())
     except (OSError, ValueError) as error:
-        raise UserError(f"--skill {skill}: not a skill run folder ({str(error).splitlines()[0][:120]})") from None
+        raise InputError(f"--skill {skill}: not a skill run folder ({str(error).splitlines()[0][:120]})") from None
     if not isinstance(settings, dict) or settings.get("command") != "skill" or settings.get("algo") not in TWO_LEVEL:
-        raise UserError(f"--skill {skill}: not a two-level train skill run (ours or ase)")
+        raise InputError(f"--skill {skill}: not a two-level train skill run (ours or ase)")
     for name in ("policy.pt", "config.yaml"):
         if not (skill / name).is_file():
-            raise UserError(f"--skill {skill}: no {name} (the run's high level and its task's curriculum)")
+            raise InputError(f"--skill {skill}: no {name} (the run's high level and its task's curriculum)")
     skill_controller(skill)  # its behavior controller is there to record with
     return settings
 

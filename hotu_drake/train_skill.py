@@ -35,7 +35,6 @@ import numpy as np
 import torch
 import yaml
 
-from hotu_drake.cli import UserError
 from hotu_drake.embodiment import EMBODIMENT_NAMES, HANDS_VARIANTS
 from hotu_drake.errors import InputError, check_choice
 from hotu_drake.io import check_output_path, write_text_atomic
@@ -105,19 +104,19 @@ def load_controller(path: str):
     try:
         return LowLevelController.load(Path(path))
     except CheckpointError as error:
-        raise UserError(f"--llc: {error}") from None
+        raise InputError(f"--llc: {error}") from None
 
 
 def controller_robot(args, wanted: str, who: str) -> tuple[str, str]:
     """The robot and hands of `--llc` (a `wanted` controller, which `who`
-    drives), as `--robot` and `--hands` may also say; `UserError` otherwise."""
+    drives), as `--robot` and `--hands` may also say; `InputError` otherwise."""
     controller = load_controller(args.llc)
     if controller.config.algo != wanted:
-        raise UserError(f"--llc {args.llc}: a {controller.config.algo} controller; {who} drives a {wanted} one")
+        raise InputError(f"--llc {args.llc}: a {controller.config.algo} controller; {who} drives a {wanted} one")
     robot = check_choice(args.robot or controller.embodiment, "--robot", EMBODIMENT_NAMES)
     hands = check_choice(args.hands or controller.hands, "--hands", HANDS_VARIANTS)
     if (robot, hands) != (controller.embodiment, controller.hands):
-        raise UserError(
+        raise InputError(
             f"--llc {args.llc}: a controller of {controller.embodiment} hands={controller.hands}, "
             f"not of {robot} hands={hands}"
         )
@@ -126,20 +125,20 @@ def controller_robot(args, wanted: str, who: str) -> tuple[str, str]:
 
 def resumed_skill_run(args, command: str, names: tuple[str, ...]) -> tuple[dict, SkillConfig]:
     """The settings and configuration of the `command` run to resume in
-    `args.out`; `UserError` if the arguments in `names` (or `--llc`,
+    `args.out`; `InputError` if the arguments in `names` (or `--llc`,
     `--config`) ask for something else than the run has."""
     out = Path(args.out)
     settings, checkpoint = resumed_run(out)
     if settings.get("command") != command:
-        raise UserError(f"{out}: not a {command} run (resume it with train {settings.get('command', 'pretrain')})")
+        raise InputError(f"{out}: not a {command} run (resume it with train {settings.get('command', 'pretrain')})")
     for name in names:
         given = getattr(args, name)
         if given is not None and given != settings[name]:
-            raise UserError(f"--{name} {given!r}: the run in {out} has {settings[name]!r}")
+            raise InputError(f"--{name} {given!r}: the run in {out} has {settings[name]!r}")
     if args.llc is not None and str(Path(args.llc).resolve()) != settings["llc"]:
-        raise UserError(f"--llc: the run in {out} drives {settings['llc']}")
+        raise InputError(f"--llc: the run in {out} drives {settings['llc']}")
     if args.config:
-        raise UserError(f"--config: the run in {out} keeps its configuration (config.yaml)")
+        raise InputError(f"--config: the run in {out} keeps its configuration (config.yaml)")
     config = skill_config_from_dict(checkpoint["meta"]["config"], where=str(out / "checkpoint.pt"))
     settings["workers"] = args.workers or settings.get("workers", 2)
     return settings, config
@@ -150,22 +149,22 @@ def _settings(args) -> tuple[dict, SkillConfig]:
     if args.resume:
         return resumed_skill_run(args, "skill", ("task", "robot", "hands", "algo"))
     if (out / "checkpoint.pt").exists() or (out / "run.json").exists():
-        raise UserError(f"{out}: a run is already here (add --resume to continue it, or choose another --out)")
+        raise InputError(f"{out}: a run is already here (add --resume to continue it, or choose another --out)")
     check_output_path(out, folder=True)
     if not args.task:
-        raise UserError("skill needs --task (or --resume with --out of a run)")
+        raise InputError("skill needs --task (or --resume with --out of a run)")
     task = check_choice(args.task, "--task", tuple(TASKS))
     algo = check_choice(args.algo or "ours", "--algo", SKILL_ALGORITHMS)
     config = load_skill_config(args.config, algo) if args.config else skill_preset(algo)
     llc = None
     if algo in TWO_LEVEL:
         if not args.llc:
-            raise UserError(f"--algo {algo} drives a behavior controller: give --llc (a train pretrain run folder)")
+            raise InputError(f"--algo {algo} drives a behavior controller: give --llc (a train pretrain run folder)")
         robot, hands = controller_robot(args, CONTROLLER_ALGO[algo], f"--algo {algo}")
         llc = str(Path(args.llc).resolve())
     else:
         if args.llc:
-            raise UserError(f"--llc: {algo} is one level (its policy sets the PD targets); --llc is for ours and ase")
+            raise InputError(f"--llc: {algo} is one level (its policy sets the PD targets); --llc is for ours and ase")
         robot = check_choice(args.robot or "udh", "--robot", EMBODIMENT_NAMES)
         hands = check_choice(args.hands or TASK_HANDS[task], "--hands", HANDS_VARIANTS)
     settings = {
@@ -241,7 +240,7 @@ def _demonstrations(settings: dict, config: SkillConfig):
             sequences = inner.interaction_sequences()
             if config.uses_interaction and not sequences:
                 kind = inner._object.kind
-                raise UserError(f"--motions: none of {', '.join(settings['motions'])} carries a {kind} track for D_I")
+                raise InputError(f"--motions: none of {', '.join(settings['motions'])} carries a {kind} track for D_I")
             return (transitions(sequences) if sequences else None), inner.standing_action()
         return build_demonstrations(inner), inner.standing_action()
     finally:

@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from hotu_drake.cli import UserError
 from hotu_drake.envs.transfer import TARGET_TRACK
+from hotu_drake.errors import InputError
 from hotu_drake.motion.clip import MotionClip
 
 
@@ -64,13 +64,13 @@ def record_skill_episodes(
 def skill_controller(skill_run: str | Path) -> Path:
     """The run folder of the behavior controller a skill run drives: the one
     its `run.json` names, else a folder of that name beside the run (a copied
-    results tree); `UserError` if neither has a `policy.pt`."""
+    results tree); `InputError` if neither has a `policy.pt`."""
     run = Path(skill_run)
     recorded = Path(json.loads((run / "run.json").read_text())["llc"])
     for folder in (recorded, run.parent / recorded.name):
         if (folder / "policy.pt").is_file():
             return folder
-    raise UserError(f"{run}: its behavior controller {recorded} (or {run.parent / recorded.name}) has no policy.pt")
+    raise InputError(f"{run}: its behavior controller {recorded} (or {run.parent / recorded.name}) has no policy.pt")
 
 
 class TwoLevelController:

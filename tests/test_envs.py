@@ -8,7 +8,6 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import hotu_drake.envs  # noqa: F401  (registers the ids)
-from hotu_drake.cli import UserError
 from hotu_drake.errors import InputError
 from hotu_drake.motion.library import MOTIONS
 from hotu_drake.retarget.references import reference_clips
@@ -141,7 +140,7 @@ def test_bad_actions_and_motions_are_refused(h1_env):
     h1_env.reset(seed=0)
     with pytest.raises(ValueError, match="finite"):
         h1_env.step(np.full(h1_env.action_space.shape, np.nan, dtype=np.float32))
-    with pytest.raises(UserError, match="moonwalk"):
+    with pytest.raises(InputError, match="moonwalk"):
         gym.make("hotu_drake/Imitation-v0", robot="h1", motions=["moonwalk"])
 
 

@@ -7,9 +7,9 @@ import pytest
 import torch
 
 from hotu_drake import embodiment
-from hotu_drake.cli import UserError
 from hotu_drake.diagrams import build_simulation
 from hotu_drake.embodiment.actions import ActionScaling
+from hotu_drake.errors import InputError
 from hotu_drake.learning.checkpoint import save_checkpoint
 from hotu_drake.objects import SceneObject
 from hotu_drake.retarget.pipeline import library_clip
@@ -107,15 +107,15 @@ def test_policy_diagram_replays_the_environments_episode(tmp_path):
 
 def test_a_checkpoint_for_another_robot_is_refused(tmp_path):
     path = save_checkpoint(tmp_path / "udh.pt", policy_for(embodiment.load("udh", "none")), "udh", "none")
-    with pytest.raises(UserError, match="udh.pt.*drives udh"):
+    with pytest.raises(InputError, match="udh.pt.*drives udh"):
         build_simulation(Scenario(embodiment="h1", driver=PolicyCheckpoint(str(path))))
 
 
 def test_a_reference_that_is_not_a_motion_or_clip_is_refused(tmp_path):
-    with pytest.raises(UserError, match="moonwalk"):
+    with pytest.raises(InputError, match="moonwalk"):
         build_simulation(Scenario(embodiment="h1", driver=ReferenceTracking(motion=str(tmp_path / "moonwalk"))))
     clip_path = library_clip("squat", "udh", "none").save(tmp_path / "udh_squat.npz")
-    with pytest.raises(UserError, match="for 'udh', not h1"):
+    with pytest.raises(InputError, match="for 'udh', not h1"):
         build_simulation(Scenario(embodiment="h1", driver=ReferenceTracking(motion=str(clip_path))))
 
 
@@ -174,14 +174,14 @@ def test_box_scenario_holds_its_box_and_reports_the_interaction():
 def test_bad_scenario_fields_name_the_file(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("embodiment: udh\nobjects:\n  - kind: piano\n")
-    with pytest.raises(UserError, match=rf"{bad}: objects\[0\].kind: 'piano' is not one of box"):
+    with pytest.raises(InputError, match=rf"{bad}: objects\[0\].kind: 'piano' is not one of box"):
         load_scenario(bad)
     bad.write_text("embodiment: udh\ndriver: !PolicyCheckpoint\n  checkpoint: missing.pt\n")
-    with pytest.raises(UserError, match="checkpoint 'missing.pt' not found"):
+    with pytest.raises(InputError, match="checkpoint 'missing.pt' not found"):
         load_scenario(bad)
     bad.write_text("embodiment: udh\npolicy:\n  checkpoint: missing.pt\n")  # the 0.1 layout
-    with pytest.raises(UserError, match="checkpoint 'missing.pt' not found"):
+    with pytest.raises(InputError, match="checkpoint 'missing.pt' not found"):
         load_scenario(bad)
     bad.write_text("embodiment: udh\ninitial:\n  reference_time: 0.5\n")
-    with pytest.raises(UserError, match="needs a reference motion"):
+    with pytest.raises(InputError, match="needs a reference motion"):
         load_scenario(bad)

@@ -73,7 +73,7 @@ def test_scenario_files_of_the_old_layout_load_as_the_shipped_scenario(path):
 
 
 def test_scenarios_are_found_by_name_old_path_or_catalogue_entry(tmp_path):
-    from hotu_drake.cli import UserError
+    from hotu_drake.errors import InputError
     from hotu_drake.resources import systems_dir
 
     def fields(scenario):
@@ -83,9 +83,9 @@ def test_scenarios_are_found_by_name_old_path_or_catalogue_entry(tmp_path):
     by_name = fields(load_scenario("perturb_bruce"))
     assert fields(load_scenario(systems_dir() / "perturb_bruce.yaml")) == by_name  # 0.1's path
     assert fields(load_scenario(systems_dir() / "perturb.yaml", "perturb_bruce")) == by_name
-    with pytest.raises(UserError, match="give one of perturb_udh"):
+    with pytest.raises(InputError, match="give one of perturb_udh"):
         load_scenario(systems_dir() / "perturb.yaml")
-    with pytest.raises(UserError, match="no scenario 'perturb_atlas'"):
+    with pytest.raises(InputError, match="no scenario 'perturb_atlas'"):
         load_scenario(systems_dir() / "perturb.yaml", "perturb_atlas")
     catalogue = tmp_path / "mine.yaml"
     catalogue.write_text("_base: &base {embodiment: bruce}\nquick: {<<: *base, duration: 0.5}\n")

@@ -120,9 +120,9 @@ def test_plot_draws_the_reward_terms_of_every_method(runs, tmp_path):
     keys = "reward/task,reward/interaction,reward/style"
     assert main(["plot", str(runs["ours"]), str(runs["amp"]), "--out", str(out), "--keys", keys, "--smooth", "1"]) == 0
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    from hotu_drake.cli import UserError
+    from hotu_drake.errors import InputError
 
-    with pytest.raises(UserError, match="no metric 'reward/grip'"):
+    with pytest.raises(InputError, match="no metric 'reward/grip'"):
         main(["plot", str(runs["amp"]), "--out", str(tmp_path / "x.png"), "--keys", "reward/grip"])
 
 
@@ -194,7 +194,7 @@ def test_the_fine_tuning_layer_gives_a_latent_on_each_parts_sphere(transfer):
 def test_a_finetune_run_resumes_and_refuses_a_skill_that_is_not_two_level(transfer, runs, tmp_path):
     import shutil
 
-    from hotu_drake.cli import UserError
+    from hotu_drake.errors import InputError
 
     run = tmp_path / "h1_box"
     shutil.copytree(transfer, run)
@@ -203,7 +203,7 @@ def test_a_finetune_run_resumes_and_refuses_a_skill_that_is_not_two_level(transf
     assert [line["samples"] for line in lines] == [8, 16, 24]  # 8 control steps an iteration
     settings = json.loads((transfer / "run.json").read_text())
     out = tmp_path / "bad"
-    with pytest.raises(UserError, match="not a two-level train skill run"):
+    with pytest.raises(InputError, match="not a two-level train skill run"):
         main(["finetune", "--skill", str(runs["amp"]), "--llc", settings["llc"], "--steps", "8", "--out", str(out)])
     assert not out.exists()
 

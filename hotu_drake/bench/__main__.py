@@ -18,8 +18,8 @@ import sys
 
 from hotu_drake import embodiment
 from hotu_drake.bench.standing import machine, one_core, pin_to_one_core, standing_realtime_factor
-from hotu_drake.cli import ArgumentParser, UserError, positive_float, run_cli
-from hotu_drake.errors import check_number
+from hotu_drake.cli import ArgumentParser, positive_float, run_cli
+from hotu_drake.errors import InputError, check_number
 from hotu_drake.scenario import DEFAULT_TIME_STEP, LIMITS, MAX_PLANT_STEPS, default_plant_config
 
 BASELINE_PLANT = (1.0 / 180.0, 1.0)  # hotu_drake 0.2's environments: 1/180 s, Drake's default near-rigid threshold
@@ -39,7 +39,7 @@ def _retarget(args) -> int:
     try:
         source = source_clip(args.input, args.seconds)
     except ClipFormatError as error:
-        raise UserError(str(error)) from None
+        raise InputError(str(error)) from None
     peer = args.peer == "mink"
     if peer and not mink_peer.mink_available():
         print(f"bench retarget: --peer mink skipped: {mink_peer.SKIP_MESSAGE}", file=sys.stderr, flush=True)
@@ -154,9 +154,9 @@ def _env(args) -> int:
     from hotu_drake.retarget.references import reference_clips
 
     if args.envs < 1 or args.envs > 64:
-        raise UserError("--envs must be between 1 and 64")
+        raise InputError("--envs must be between 1 and 64")
     if args.seconds > 3600:
-        raise UserError("--seconds must be at most 3600")
+        raise InputError("--seconds must be at most 3600")
     check_number(args.rounds, "--rounds", low=1, high=20, integer=True)
     emb = embodiment.load(args.robot, args.hands)
     reference_clips(emb, args.motions)  # retarget (or load from the cache) once, before timing
@@ -212,7 +212,7 @@ def _env(args) -> int:
             with one_core():
                 peer = bench_env.mujoco_peer(args.robot, args.hands, args.seconds)
         except RuntimeError as error:
-            raise UserError(str(error)) from None
+            raise InputError(str(error)) from None
         report["peer"] = peer
         report["drake_to_mujoco_ratio"] = round(
             report["in_process"]["env_steps_per_second"] / peer["env_steps_per_second"], 3
@@ -239,7 +239,9 @@ def _fidelity(args) -> int:
 
     robots = fidelity.legged_robots() if args.robot == "all" else (args.robot,)
     if any(r not in fidelity.legged_robots() for r in robots):
-        raise UserError(f"--robot: {args.robot!r} is not a legged robot ({', '.join(fidelity.legged_robots())}) or all")
+        raise InputError(
+            f"--robot: {args.robot!r} is not a legged robot ({', '.join(fidelity.legged_robots())}) or all"
+        )
     for rate in [*args.rates, args.reference_rate]:
         check_number(1.0 / rate, "--rates", low=LIMITS["time_step"]["low"], high=LIMITS["time_step"]["high"], unit="s")
     for threshold in args.thresholds:
@@ -266,7 +268,7 @@ def _train(args) -> int:
     from hotu_drake.learning.config import ALGORITHMS
 
     if args.algo not in ALGORITHMS:
-        raise UserError(f"--algo {args.algo!r}: choose from {', '.join(ALGORITHMS)}")
+        raise InputError(f"--algo {args.algo!r}: choose from {', '.join(ALGORITHMS)}")
     check_number(args.iterations, "--iterations", low=1, high=1000, integer=True)
     for count in args.workers:
         check_number(count, "--workers", low=1, high=64, integer=True)
@@ -355,16 +357,16 @@ def main(argv: list[str] | None = None) -> int:
 
     names = embodiment.EMBODIMENT_NAMES if args.robot == "all" else (args.robot,)
     if any(n not in embodiment.EMBODIMENT_NAMES for n in names):
-        raise UserError(f"unknown robot '{args.robot}'; choose from {', '.join(embodiment.EMBODIMENT_NAMES)} or all")
+        raise InputError(f"unknown robot '{args.robot}'; choose from {', '.join(embodiment.EMBODIMENT_NAMES)} or all")
     if args.seconds > 3600:
-        raise UserError("--seconds must be at most 3600")
+        raise InputError("--seconds must be at most 3600")
     if args.command == "diagram":
         return _diagram(args, names)
     check_number(
         args.time_step, "--time-step", low=LIMITS["time_step"]["low"], high=LIMITS["time_step"]["high"], unit="s"
     )
     if args.seconds / args.time_step > MAX_PLANT_STEPS:
-        raise UserError(
+        raise InputError(
             f"--seconds {args.seconds:g} at --time-step {args.time_step:g} is more than {MAX_PLANT_STEPS:.0e} steps"
         )
     hands = ("full", "none") if args.hands == "both" else (args.hands,)

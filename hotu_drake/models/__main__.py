@@ -12,7 +12,8 @@ import sys
 from pathlib import Path
 
 from hotu_drake import embodiment
-from hotu_drake.cli import ArgumentParser, UserError, positive_float, run_cli
+from hotu_drake.cli import ArgumentParser, positive_float, run_cli
+from hotu_drake.errors import InputError
 from hotu_drake.embodiment.embodiment import EXPORT_SUFFIX
 from hotu_drake.io import write_text_atomic
 from hotu_drake.models import dof_table, format_table, generated_files
@@ -49,25 +50,25 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.command == "export":
         if args.name not in embodiment.EMBODIMENT_NAMES:
-            raise UserError(f"unknown embodiment '{args.name}'; choose from {', '.join(embodiment.EMBODIMENT_NAMES)}")
+            raise InputError(f"unknown embodiment '{args.name}'; choose from {', '.join(embodiment.EMBODIMENT_NAMES)}")
         options = {}
         if args.height is not None:
             if args.name != "udh":
-                raise UserError("--height applies to the UDH only")
+                raise InputError("--height applies to the UDH only")
             options["height"] = args.height
         try:
             emb = embodiment.load(args.name, args.hands, **options)
         except ValueError as error:
-            raise UserError(str(error)) from None
+            raise InputError(str(error)) from None
         out = Path(args.out)
         if out.is_dir():
-            raise UserError(f"{out}: is a folder; give a file name")
+            raise InputError(f"{out}: is a folder; give a file name")
         write_text_atomic(out, emb.model_text(args.format))
         print(f"wrote {out}")
         return 0
     root = Path(args.out) if args.out else models_dir()
     if root.exists() and not root.is_dir():
-        raise UserError(f"{root}: is a file; give a folder")
+        raise InputError(f"{root}: is a file; give a folder")
     stale = []
     for relative, text in generated_files().items():
         path = root / relative

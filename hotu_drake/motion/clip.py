@@ -35,7 +35,6 @@ from pathlib import Path
 
 import numpy as np
 
-from hotu_drake.cli import UserError
 from hotu_drake.errors import InputError
 from hotu_drake.io import atomic_output
 
@@ -52,7 +51,7 @@ _ARRAYS = (
 _REQUIRED = ("format_version", "embodiment", "source", "fps", "joint_names", "key_body_names", *_ARRAYS)
 
 
-class ClipFormatError(UserError):
+class ClipFormatError(InputError):
     """A clip file or array that does not follow the format."""
 
 

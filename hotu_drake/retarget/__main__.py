@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 from hotu_drake import embodiment
-from hotu_drake.cli import ArgumentParser, UserError, run_cli, show_notes
+from hotu_drake.cli import ArgumentParser, run_cli, show_notes
 from hotu_drake.errors import InputError
 from hotu_drake.io import check_output_path, write_text_atomic
 from hotu_drake.motion.load import load_motion
@@ -77,7 +77,7 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     robots = list(TARGETS) if args.robot == "all" else [args.robot]
     if any(r not in TARGETS for r in robots):
-        raise UserError(f"unknown robot '{args.robot}'; choose from {', '.join(TARGETS)} or all")
+        raise InputError(f"unknown robot '{args.robot}'; choose from {', '.join(TARGETS)} or all")
     out = check_output_path(args.out, folder=True)
     for extra in (args.report, args.html):
         if extra:
@@ -86,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
         try:
             signed_axis(args.up)
         except ValueError as error:
-            raise UserError(f"--up: {error}") from None
+            raise InputError(f"--up: {error}") from None
     show_notes()
     progress = Progress(len(args.inputs) * (1 + len([r for r in robots if r != "udh"])))
     figures: dict[str, dict] = {}

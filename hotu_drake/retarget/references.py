@@ -13,8 +13,8 @@ from collections.abc import Iterable
 from functools import lru_cache
 from pathlib import Path
 
-from hotu_drake.cli import UserError
 from hotu_drake.embodiment import Embodiment
+from hotu_drake.errors import InputError
 from hotu_drake.motion.clip import ClipFormatError, MotionClip
 from hotu_drake.motion.library import MOTIONS
 from hotu_drake.retarget.pipeline import library_clip
@@ -55,7 +55,7 @@ def library_clip_cached(motion: str, embodiment: Embodiment) -> MotionClip:
 
 def reference_clip(motion: str, embodiment: Embodiment, base_dir: str | Path | None = None) -> MotionClip:
     """One motion on `embodiment`; a relative clip path is taken from `base_dir`.
-    Raises `UserError` for a name that is neither, or a clip of another embodiment."""
+    Raises `InputError` for a name that is neither, or a clip of another embodiment."""
     if motion in MOTIONS:
         clip = library_clip_cached(motion, embodiment)
     else:
@@ -63,10 +63,10 @@ def reference_clip(motion: str, embodiment: Embodiment, base_dir: str | Path | N
         if base_dir is not None and not path.is_absolute():
             path = Path(base_dir) / path
         if path.suffix != ".npz" or not path.is_file():
-            raise UserError(f"{path}: not a library motion ({', '.join(MOTIONS)}) nor a .npz clip")
+            raise InputError(f"{path}: not a library motion ({', '.join(MOTIONS)}) nor a .npz clip")
         clip = MotionClip.load(path)
     if list(clip.joint_names) != list(embodiment.joint_names):
-        raise UserError(f"{motion}: a clip for '{clip.embodiment}', not {embodiment.name} hands={embodiment.hands}")
+        raise InputError(f"{motion}: a clip for '{clip.embodiment}', not {embodiment.name} hands={embodiment.hands}")
     return clip
 
 
@@ -77,8 +77,8 @@ def reference_clips(embodiment: Embodiment, motions: Iterable[str] | str | None 
     elif motions is not None and (
         not isinstance(motions, list | tuple) or not all(isinstance(m, str | Path) for m in motions)
     ):
-        raise UserError(f"{motions!r}: give motion names or .npz clip paths", field="motions")
+        raise InputError(f"{motions!r}: give motion names or .npz clip paths", field="motions")
     clips = [reference_clip(motion, embodiment) for motion in (MOTIONS if motions is None else motions)]
     if not clips:
-        raise UserError("motions: give at least one motion")
+        raise InputError("motions: give at least one motion")
     return clips

@@ -15,9 +15,9 @@ import torch
 from pydrake.systems.framework import BasicVector, Context, DiagramBuilder, LeafSystem, OutputPort
 from pydrake.systems.primitives import ConstantVectorSource
 
-from hotu_drake.cli import UserError
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.actions import standing_action
+from hotu_drake.errors import InputError
 from hotu_drake.learning.checkpoint import CheckpointError, load_checkpoint
 from hotu_drake.learning.policy import PolicyConfig, PolicyNetwork
 from hotu_drake.systems.observation import observation_size
@@ -41,27 +41,27 @@ def policy_for(embodiment: Embodiment, latent_size: int = LATENT_SIZE, seed: int
 def load_policy(path: str | Path, embodiment: Embodiment, goal_size: int = 0) -> tuple[PolicyNetwork, dict]:
     """The network of a checkpoint and its metadata, checked against
     `embodiment` (a network that also observes a task's goal of `goal_size`
-    numbers fits too); a file that does not fit raises `UserError` naming it."""
+    numbers fits too); a file that does not fit raises `InputError` naming it."""
     try:
         network, meta = load_checkpoint(path)
     except CheckpointError as error:
-        raise UserError(str(error)) from None
+        raise InputError(str(error)) from None
     if meta.get("meta", {}).get("kind") == "skill":
-        raise UserError(f"{path}: a skill's high level, not a controller (a scenario runs it with !SkillCheckpoint)")
+        raise InputError(f"{path}: a skill's high level, not a controller (a scenario runs it with !SkillCheckpoint)")
     check_embodiment(path, meta, embodiment, "policy")
     if network.config.action_size != len(embodiment.joint_names):
         actions, joints = network.config.action_size, len(embodiment.joint_names)
-        raise UserError(f"{path}: the policy has {actions} actions, {embodiment.name} has {joints} joints")
+        raise InputError(f"{path}: the policy has {actions} actions, {embodiment.name} has {joints} joints")
     if network.config.observation_size not in {observation_size(embodiment), observation_size(embodiment) + goal_size}:
         size, expected = network.config.observation_size, observation_size(embodiment)
-        raise UserError(f"{path}: the policy observes {size} numbers, {embodiment.name}'s observation has {expected}")
+        raise InputError(f"{path}: the policy observes {size} numbers, {embodiment.name}'s observation has {expected}")
     return network, meta
 
 
 def check_embodiment(path: str | Path, data: dict, embodiment: Embodiment, what: str) -> None:
-    """`UserError` unless the checkpoint `data` was trained on `embodiment` (with its hands)."""
+    """`InputError` unless the checkpoint `data` was trained on `embodiment` (with its hands)."""
     if (data.get("embodiment"), data.get("hands")) != (embodiment.name, embodiment.hands):
-        raise UserError(
+        raise InputError(
             f"{path}: the {what} drives {data.get('embodiment')} hands={data.get('hands')}, "
             f"not {embodiment.name} hands={embodiment.hands}"
         )

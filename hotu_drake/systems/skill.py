@@ -16,8 +16,8 @@ import numpy as np
 import torch
 from pydrake.systems.framework import BasicVector, Context, DiagramBuilder, LeafSystem, OutputPort
 
-from hotu_drake.cli import UserError
 from hotu_drake.embodiment import Embodiment
+from hotu_drake.errors import InputError
 from hotu_drake.learning.checkpoint import CheckpointError, load_checkpoint
 from hotu_drake.learning.policy import PolicyNetwork
 from hotu_drake.learning.skill_agent import high_level_input, to_latents
@@ -29,23 +29,23 @@ from hotu_drake.systems.policy import CONTROL_RATE, check_embodiment
 def load_skill_policy(path: str | Path, embodiment: Embodiment, reference_size: int = 0) -> tuple[PolicyNetwork, dict]:
     """The high-level network of a skill checkpoint and its `meta`, checked
     against `embodiment` (and, for a fine-tuned transfer layer, the size of
-    its reference features); `UserError` naming the file otherwise."""
+    its reference features); `InputError` naming the file otherwise."""
     try:
         network, data = load_checkpoint(path)
     except CheckpointError as error:
-        raise UserError(str(error)) from None
+        raise InputError(str(error)) from None
     meta = data.get("meta", {})
     if meta.get("kind") != "skill":
-        raise UserError(f"{path}: not a skill checkpoint (train one with `python -m hotu_drake.train skill`)")
+        raise InputError(f"{path}: not a skill checkpoint (train one with `python -m hotu_drake.train skill`)")
     check_embodiment(path, data, embodiment, "skill")
     trained = int(meta.get("reference_size", 0))
     if trained != reference_size:
         what = "a transfer layer: give its reference clip" if trained else "not a transfer layer: it takes no reference"
-        raise UserError(f"{path}: {what} (reference features {trained}, given {reference_size})")
+        raise InputError(f"{path}: {what} (reference features {trained}, given {reference_size})")
     expected = observation_size(embodiment) + GOAL_SIZE + reference_size + int(meta["interaction_size"])
     if network.config.observation_size != expected:
         size = network.config.observation_size
-        raise UserError(f"{path}: the skill observes {size} numbers, {embodiment.name}'s task gives {expected}")
+        raise InputError(f"{path}: the skill observes {size} numbers, {embodiment.name}'s task gives {expected}")
     return network, meta
 
 
