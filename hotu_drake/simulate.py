@@ -8,8 +8,10 @@ a scenario file (one scenario, or a catalogue with `--name`).
 Builds the scenario's diagram, simulates it and prints `realtime_factor`,
 `fell` (a body other than a foot touched the floor, or the pelvis dropped
 below half its standing height), `min_pelvis_height`, `max_torque_ratio`
-(largest |torque| over its effort limit) and `checksum` (of the final state,
-to pin a scenario's outcome in regression tests). A scenario with a
+(largest |torque| over its effort limit) and `checksum` (of the final state:
+the same on one machine run after run; another machine's floating-point
+last bits may change it, so regression tests pin the state itself and
+compare it with a tolerance). A scenario with a
 reference motion also gets `tracking_rms` (rad, joint positions against the
 reference, sampled every 50 ms).
 """
@@ -31,13 +33,16 @@ CHUNK = 0.05  # s between checks of falls and torques
 
 
 def state_checksum(values: np.ndarray) -> str:
-    """A short digest of a state, rounded so it is stable on one machine."""
+    """A short digest of a state, rounded so it is stable on one machine
+    (not across machines: a value near a rounding boundary may round the
+    other way; compare `run(..., state=True)`'s positions and velocities with a tolerance)."""
     rounded = np.round(np.asarray(values, dtype=float), 6) + 0.0  # no negative zeros
     return hashlib.sha256(rounded.tobytes()).hexdigest()[:16]
 
 
-def run(scenario: Scenario, duration: float | None = None, meshcat=None) -> dict:
-    """Simulate a scenario; the figures `simulate` prints."""
+def run(scenario: Scenario, duration: float | None = None, meshcat=None, state: bool = False) -> dict:
+    """Simulate a scenario; the figures `simulate` prints (and with `state`,
+    the final `positions` and `velocities`)."""
     sim = build_simulation(scenario, meshcat=meshcat)
     emb, plant, context = sim.embodiment, sim.plant, sim.plant_context()
     fall = sim.fall_check()
@@ -73,6 +78,9 @@ def run(scenario: Scenario, duration: float | None = None, meshcat=None) -> dict
         "max_torque_ratio": round(torque_ratio, 4),
         "checksum": state_checksum(plant.GetPositionsAndVelocities(context)),
     }
+    if state:
+        figures["positions"] = plant.GetPositions(context).tolist()
+        figures["velocities"] = plant.GetVelocities(context).tolist()
     if errors:
         figures["tracking_rms"] = round(float(np.sqrt(np.mean(np.square(errors)))), 4)
     return figures

@@ -1,32 +1,47 @@
-"""Every shipped scenario builds and runs; its outcome is pinned by a checksum.
+"""Every shipped scenario builds and runs; its outcome is pinned.
 
-The checksums in tests/data/scenario_checksums.json are of the state after
-0.5 s; update them only deliberately, after checking why a run changed:
+tests/data/scenario_states.json holds each scenario's positions and
+velocities after 0.5 s (rounded to 6 decimals); a run must end within
+POSITION_TOLERANCE and VELOCITY_TOLERANCE of them. The tolerances are far
+above what another machine's floating-point last bits move (a different
+BLAS or FMA moves a 0.5 s standing run by about 1e-9) and far below what a
+changed controller, model or reference moves (centimetres). The state's
+checksum is compared only between two runs on this machine. Update the
+file only deliberately, after checking why a run changed:
     python -m tests.test_scenarios
 """
 
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from hotu_drake.scenario import load_scenario, shipped_scenarios
 from hotu_drake.simulate import run
 
-CHECKSUMS = Path(__file__).parent / "data" / "scenario_checksums.json"
+STATES = Path(__file__).parent / "data" / "scenario_states.json"
 SCENARIOS = sorted(shipped_scenarios())
 SHORT = 0.5  # s
+POSITION_TOLERANCE = 1e-3  # m, rad
+VELOCITY_TOLERANCE = 1e-2  # m/s, rad/s
 
 
 @pytest.mark.parametrize("name", SCENARIOS)
 def test_scenario_runs_within_torque_limits_and_reproducibly(name):
     scenario = load_scenario(name)
-    figures = run(scenario, SHORT)
+    figures = run(scenario, SHORT, state=True)
     assert figures["max_torque_ratio"] <= 1.0 + 1e-9
     assert not figures["fell"]
     again = run(scenario, SHORT)
-    assert again["checksum"] == figures["checksum"]
-    assert figures["checksum"] == json.loads(CHECKSUMS.read_text())[name]
+    assert again["checksum"] == figures["checksum"]  # the same machine: the same bits
+    pinned = json.loads(STATES.read_text())[name]
+    for key, tolerance in (("positions", POSITION_TOLERANCE), ("velocities", VELOCITY_TOLERANCE)):
+        np.testing.assert_allclose(figures[key], pinned[key], rtol=0, atol=tolerance, err_msg=f"{name} {key}")
+
+
+def _pinned(figures: dict) -> dict:
+    return {key: [round(x, 6) + 0.0 for x in figures[key]] for key in ("positions", "velocities")}
 
 
 def test_perturbation_scenarios_push_but_do_not_topple():
@@ -101,6 +116,10 @@ def test_a_scenario_pickles_for_worker_processes():
 
 
 if __name__ == "__main__":
-    values = {name: run(load_scenario(name), SHORT)["checksum"] for name in SCENARIOS}
-    CHECKSUMS.write_text(json.dumps(values, indent=2, sort_keys=True) + "\n")
-    print(f"wrote {CHECKSUMS}")
+    values = {name: _pinned(run(load_scenario(name), SHORT, state=True)) for name in SCENARIOS}
+    entries = [
+        f'  "{name}": {{"positions": {json.dumps(v["positions"])},\n    "velocities": {json.dumps(v["velocities"])}}}'
+        for name, v in values.items()
+    ]
+    STATES.write_text("{\n" + ",\n".join(entries) + "\n}\n")
+    print(f"wrote {STATES}")

@@ -3,6 +3,9 @@
 `python -m hotu_drake.models` is the command line over these.
 """
 
+import math
+import re
+
 from hotu_drake import embodiment
 from hotu_drake.embodiment.embodiment import EXPORT_SUFFIX
 from hotu_drake.embodiment.spec import PARTS
@@ -33,3 +36,22 @@ def generated_files() -> dict[str, str]:
     for name in OBJECTS:
         files[f"objects/{name}.sdf"] = object_sdf(name)
     return files
+
+
+_NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+# One unit in the sixth significant digit (the writers' precision) is at most 1e-5 of the value.
+SIXTH_DIGIT = 2e-5
+
+
+def same_model_text(a: str, b: str) -> bool:
+    """Whether two model files say the same: equal text between the
+    numbers, and the numbers equal to within the writers' precision (a
+    value that rounds the other way in its sixth significant digit on
+    another machine is the same model)."""
+    words_a, words_b = _NUMBER.split(a), _NUMBER.split(b)
+    if words_a != words_b:
+        return False
+    return all(
+        math.isclose(float(x), float(y), rel_tol=SIXTH_DIGIT, abs_tol=1e-9)
+        for x, y in zip(_NUMBER.findall(a), _NUMBER.findall(b))
+    )

@@ -1,8 +1,8 @@
 """Model files of the six embodiments.
 
-    python -m hotu_drake.models list [--json]
-    python -m hotu_drake.models export NAME --format sdf|urdf|mjcf [--hands full|none] --out FILE
-    python -m hotu_drake.models generate [--out DIR] [--check]
+python -m hotu_drake.models list [--json]
+python -m hotu_drake.models export NAME --format sdf|urdf|mjcf [--hands full|none] --out FILE
+python -m hotu_drake.models generate [--out DIR] [--check]
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from hotu_drake.cli import ArgumentParser, positive_float, run_cli
 from hotu_drake.errors import InputError
 from hotu_drake.embodiment.embodiment import EXPORT_SUFFIX
 from hotu_drake.io import write_text_atomic
-from hotu_drake.models import dof_table, format_table, generated_files
+from hotu_drake.models import dof_table, format_table, generated_files, same_model_text
 from hotu_drake.resources import models_dir
 
 
@@ -38,7 +38,11 @@ def _parser() -> ArgumentParser:
     export.add_argument("--out", required=True, help="output file")
     generate = sub.add_parser("generate", help="regenerate every file under models/")
     generate.add_argument("--out", help="folder to write (default: the repository's models/)")
-    generate.add_argument("--check", action="store_true", help="write nothing; exit 1 if any file differs")
+    generate.add_argument(
+        "--check",
+        action="store_true",
+        help="write nothing; exit 1 if any file means another model (numbers compared to 6 digits)",
+    )
     return parser
 
 
@@ -72,7 +76,9 @@ def main(argv: list[str] | None = None) -> int:
     stale = []
     for relative, text in generated_files().items():
         path = root / relative
-        if path.exists() and path.read_text(encoding="utf-8") == text:
+        old = path.read_text(encoding="utf-8") if path.exists() else None
+        # --check asks whether a file says another model; generate writes the specs' canonical text.
+        if old is not None and (same_model_text(old, text) if args.check else old == text):
             continue
         stale.append(relative)
         if not args.check:

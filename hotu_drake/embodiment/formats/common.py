@@ -6,11 +6,18 @@ from collections.abc import Iterable
 
 from hotu_drake.embodiment.spec import PART_COLORS, EmbodimentSpec, LinkSpec
 
+# Sums that are zero in exact arithmetic come out as +-1e-19 or so, with a
+# sign and size that depend on the machine's floating-point last bits.
+ZERO = 1e-12
+
 
 def fmt(x: float) -> str:
-    """A float with 6 significant digits and no negative zero."""
-    text = f"{float(x):.6g}"
-    return "0" if text in ("-0", "0") else text
+    """A float in canonical text: 6 significant digits, anything within
+    `ZERO` of zero (negative zero too) written as 0, so the model files are
+    the same text on every machine (`hotu_drake.models.same_model_text`
+    also tolerates a value that rounds the other way in its sixth digit)."""
+    x = float(x)
+    return "0" if abs(x) < ZERO else f"{x:.6g}"
 
 
 def vec(values: Iterable[float]) -> str:
