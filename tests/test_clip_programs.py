@@ -164,7 +164,7 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 def _standing_straight(frames: int = 30) -> dict[str, np.ndarray]:
     """A human standing straight and still: the UDH's landmarks at rest."""
-    from hotu_drake.retarget.neutral import _udh_rest
+    from hotu_drake.retarget.udh_rest import udh_rest_landmarks as _udh_rest
 
     return {name: np.tile(point, (frames, 1)) for name, point in _udh_rest().items()}
 
@@ -219,7 +219,8 @@ def test_finger_tips_without_a_hand_frame_are_left_alone():
 
 
 def test_shape_runs_start_where_the_hand_changes():
-    from hotu_drake.retarget.clip_programs import SHAPE_TOLERANCE, shape_runs
+    from hotu_drake.retarget.clip_programs import shape_runs
+    from hotu_drake.retarget.part_ik import SHAPE_TOLERANCE
 
     still = np.ones((100, 6))
     assert (shape_runs(still) == 0).all()

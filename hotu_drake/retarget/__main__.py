@@ -5,10 +5,13 @@
                                   [--up AXIS] [--allow-implausible] [--report FILE.json] [--html FILE.html]
 
 Writes DIR/<clip>_<robot>.npz for every input and robot (human -> UDH ->
-robot). Output paths are checked before any work. A bad input is reported
-in one line and skipped; the others are still processed; the exit code is
-2 if any input failed. What the readers decided (the up axis, the marker
-set, body parts a capture lacks) is said in `note:` lines.
+robot). Every output path (the clips, the report, the replays) is checked
+before any work. A bad input is reported in one line and skipped; the
+others are still processed, and the exit code is 2 if any input failed. A
+run whose every input failed writes nothing (no report either), and a
+write that fails removes the run's other outputs. What the readers decided
+(the up axis, the marker set, body parts a capture lacks) is said in
+`note:` lines.
 """
 
 import json
@@ -47,7 +50,8 @@ def _parser() -> ArgumentParser:
     parser.add_argument(
         "--allow-implausible",
         action="store_true",
-        help="accept a skeleton of inhuman height or a root that jumps (a cut between takes)",
+        help="accept a skeleton of inhuman height, a root that jumps (a cut between takes) "
+        "or a body that never stands upright (lying down all along)",
     )
     parser.add_argument("--report", help="write per-clip, per-robot figures as JSON")
     parser.add_argument("--html", help="write a Meshcat replay (source, UDH and robots side by side)")
@@ -73,15 +77,47 @@ class Progress:
             print(line, file=sys.stderr, flush=True)
 
 
+def _axis_values(argv: list[str]) -> list[str]:
+    """`argv` with `--up -y` read as `--up=-y` (argparse takes a value that
+    starts with a dash for an option, and refuses it)."""
+    out: list[str] = []
+    for word in argv:
+        if out and out[-1] == "--up" and len(word) == 2 and word[0] == "-" and word[1] in "xyzXYZ":
+            out[-1] = f"--up={word}"
+        else:
+            out.append(word)
+    return out
+
+
+def _replay_path(html: Path, stem: str, count: int) -> Path:
+    """Where the replay of clip `stem` goes: `html` itself for one clip, else `<html>_<stem>.html`."""
+    return html if count == 1 else html.with_name(f"{html.stem}_{stem}{html.suffix}")
+
+
+def _check_outputs(args, robots: list[str]) -> Path:
+    """Check every path the run may write before any work (the output folder,
+    each clip, the report, the replays: `check_output_path`), so an
+    unwritable one fails the run before anything is written. Returns the folder."""
+    out = check_output_path(args.out, folder=True)
+    stems = list(dict.fromkeys(Path(path).stem for path in args.inputs))
+    for stem in stems:
+        for robot in robots:
+            check_output_path(out / f"{stem}_{robot}.npz")
+    if args.report:
+        check_output_path(args.report)
+    if args.html:
+        html = check_output_path(args.html)
+        for stem in stems if len(args.inputs) > 1 else ():  # as many replays as inputs that are read
+            check_output_path(_replay_path(html, stem, len(args.inputs)))
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
+    args = _parser().parse_args(_axis_values(sys.argv[1:] if argv is None else argv))
     robots = list(TARGETS) if args.robot == "all" else [args.robot]
     if any(r not in TARGETS for r in robots):
         raise InputError(f"unknown robot '{args.robot}'; choose from {', '.join(TARGETS)} or all")
-    out = check_output_path(args.out, folder=True)
-    for extra in (args.report, args.html):
-        if extra:
-            check_output_path(extra)
+    out = _check_outputs(args, robots)
     if args.up is not None:
         try:
             signed_axis(args.up)
@@ -114,26 +150,43 @@ def main(argv: list[str] | None = None) -> int:
             if robot != "udh":
                 results[robot] = to_robot(udh.clip, robot, args.hands)
                 progress.step(f"{stem} -> {robot}")
-        figures[stem] = {}
-        for robot in robots:
-            stage = results[robot]
-            stage.clip.save(out / f"{stem}_{robot}.npz")
-            if args.report:
+        if args.report:
+            figures[stem] = {}
+            for robot in robots:
+                stage = results[robot]
                 emb = embodiment.load(robot, "full" if has_fingers(stage.clip) else "none")
                 figures[stem][robot] = report(source, stage.clip, emb, stage.seconds)
-        replays.append((stem, source, [results["udh"].clip] + [results[r].clip for r in robots if r != "udh"]))
-    if args.report:
-        write_text_atomic(args.report, json.dumps({"clips": figures, "errors": failures}, indent=2) + "\n")
-    if args.html and replays:
-        from hotu_drake.retarget.replay import write_replay
-
-        html = Path(args.html)
-        for stem, source, clips in replays:
-            target = html if len(replays) == 1 else html.with_name(f"{html.stem}_{stem}{html.suffix}")
-            write_replay(target, clips, source)
+        replays.append((stem, source, results))
+    if replays:  # a run whose every input was refused writes nothing, not even the report of its errors
+        _write(args, out, robots, figures, failures, replays)
     written = sum(len(v) for v in figures.values()) if args.report else len(replays) * len(robots)
     print(f"retargeted {len(replays)} clip(s) onto {', '.join(robots)}: {written} file(s) in {out}", file=sys.stderr)
     return 2 if failures else 0
+
+
+def _write(args, out: Path, robots: list[str], figures: dict, failures: list[str], replays: list) -> None:
+    """Write the clips, the report and the replays, all or none: a write that
+    fails (a full disk, an error in a replay) removes what this run wrote."""
+    written: list[Path] = []
+    try:
+        for stem, _, results in replays:
+            for robot in robots:
+                written.append(results[robot].clip.save(out / f"{stem}_{robot}.npz"))
+        if args.report:
+            report_json = json.dumps({"clips": figures, "errors": failures}, indent=2) + "\n"
+            written.append(write_text_atomic(args.report, report_json))
+        if args.html:
+            from hotu_drake.retarget.replay import write_replay
+
+            for stem, source, results in replays:  # the UDH beside the robots, whether asked for or not
+                clips = [results["udh"].clip] + [results[robot].clip for robot in robots if robot != "udh"]
+                target = _replay_path(Path(args.html), stem, len(replays))
+                write_replay(target, clips, source)
+                written.append(target)
+    except BaseException:
+        for path in written:
+            path.unlink(missing_ok=True)
+        raise
 
 
 if __name__ == "__main__":

@@ -24,25 +24,24 @@ follows the first planted foot's anchor (left before right, as the
 streaming path does), and the legs' program holds each planted ankle on
 its anchor with its sole level over each contact phase, along with the
 legs' own targets.
+
+The solvers read the parts, targets, root path and leg locks of the
+`retargeter.Retargeter` that calls them (`retarget_clip`); that module
+imports this one, so this one names it in prose only.
 """
 
 from __future__ import annotations
 
 import itertools
-from typing import TYPE_CHECKING
 
 import numpy as np
 from pydrake.solvers import MathematicalProgram, OsqpSolver, SolverOptions
 
 from hotu_drake.embodiment.spec import SIDES
-from hotu_drake.retarget.part_ik import FINGER_LEVEL, TRUST_REGION
+from hotu_drake.retarget.part_ik import FINGER_LEVEL, SHAPE_TOLERANCE, TRUST_REGION
 from hotu_drake.retarget.tree import Pose
 from hotu_drake.rotations import heading_rotation, normalize
 
-if TYPE_CHECKING:
-    from hotu_drake.retarget.retargeter import Retargeter
-
-SHAPE_TOLERANCE = 1e-4  # a hand whose finger directions (in its frame) change less keeps its shape
 # The legs' program: weights of a planted ankle's distance (m) from its anchor
 # and of its sole's tilt (rad), against the legs' direction targets (1 each).
 ANCHOR_WEIGHT = 100.0
@@ -194,8 +193,9 @@ class ClipSolver:
     (and one over both legs for the planted feet); levels of one shape share
     a program."""
 
-    def __init__(self, retargeter: Retargeter, frames: int, legs: bool = True):
-        """`legs`: whether the levels solve the legs' parts too; if not (and
+    def __init__(self, retargeter, frames: int, legs: bool = True):
+        """`retargeter`: the `Retargeter` whose parts these programs solve.
+        `legs`: whether the levels solve the legs' parts too; if not (and
         the legs' program runs, planting the feet), only that program does."""
         self.r = r = retargeter
         self.frames = frames
@@ -511,10 +511,10 @@ def shape_runs(shapes: np.ndarray, window: int = 64) -> np.ndarray:
 
 
 def retarget_clip(
-    retargeter: Retargeter, src: dict, src_frames: dict, contacts: dict, ratio: float
+    retargeter, src: dict, src_frames: dict, contacts: dict, ratio: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Joint positions (T, n), root rotations (T, 3, 3) and root positions
-    (T, 3) of a whole clip.
+    (T, 3) of a whole clip, by the `Retargeter` `retargeter`.
 
     Coarse to fine: the programs first converge on every `coarse_stride`-th
     frame from the standing pose; the joint paths interpolated from them

@@ -62,7 +62,7 @@ def thumb_hand_frame(p: dict, side: str) -> np.ndarray:
     """A hand frame for a capture without a knuckle line (CMU's hands carry
     one chain for the four fingers and one for the thumb): z from the wrist
     to the end of the palm, y towards the thumb's tip. It is turned about z
-    from `hand_frame` by a fixed angle (`neutral.thumb_frame_offset`)."""
+    from `hand_frame` by a fixed angle (`source_frames.thumb_frame_offset`)."""
     return frame_from_zy(p[f"{side}_hand"] - p[f"{side}_wrist"], p[f"{side}_thumb_4"] - p[f"{side}_wrist"])
 
 

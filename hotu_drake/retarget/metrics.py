@@ -16,7 +16,8 @@ from hotu_drake.motion.udh_skeleton import points_on_clip
 from hotu_drake.retarget import frames
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
 from hotu_drake.retarget.neutral import calibrate
-from hotu_drake.retarget.retargeter import Retargeter, _source_frames, foot_contacts_of, whole_finger_points
+from hotu_drake.retarget.retargeter import Retargeter, foot_contacts_of, whole_finger_points
+from hotu_drake.retarget.source_frames import source_frames
 from hotu_drake.retarget.tree import Tree
 from hotu_drake.rotations import finite_difference, heading_rotation, quat_to_matrix, rotation_log
 
@@ -97,7 +98,7 @@ def report(source: MotionClip, result: MotionClip, emb: embodiments.Embodiment, 
                 e = np.concatenate(values)
                 out[key][part] = {"mean": round(float(e.mean()), 2), "max": round(float(e.max()), 2)}
     finger_errors = []
-    src_hands = _source_frames(src)
+    src_hands = source_frames(src)
     for side in ("left", "right"):
         if f"{side}_hand" not in src_hands or not {f"{side}_index_1", f"{side}_little_1"} <= set(dst):
             continue

@@ -25,15 +25,11 @@ on CMU 01_01).
 
 from __future__ import annotations
 
-from functools import cache
-from typing import TYPE_CHECKING
-
 import numpy as np
 
+from hotu_drake.retarget.source_frames import source_frames
+from hotu_drake.retarget.udh_rest import udh_rest_landmarks
 from hotu_drake.rotations import normalize
-
-if TYPE_CHECKING:
-    from hotu_drake.retarget.retargeter import Retargeter
 
 NEUTRAL_SWEEPS = 40  # passes over the parts that find an embodiment's neutral pose
 SMALLEST_TURN = np.radians(1.0)  # a smaller offset from the human's direction is no calibration
@@ -41,29 +37,6 @@ LEG = ("hip", "knee", "ankle")
 CALIBRATED = ("shoulder", "hip", "knee", "ankle")  # by the segment's start
 # The segment a limb segment hangs from: its start landmark is that segment's end.
 PARENT_SEGMENT = {"elbow": "shoulder", "wrist": "elbow", "knee": "hip", "ankle": "knee"}
-
-
-@cache
-def _udh_rest() -> dict[str, np.ndarray]:
-    """The UDH's landmarks at rest: a human standing straight, hands open."""
-    from hotu_drake import embodiment as embodiments
-    from hotu_drake.embodiment.landmarks import landmark_placements
-    from hotu_drake.retarget.targets import Landmarks
-    from hotu_drake.retarget.tree import Tree
-
-    udh = embodiments.load("udh", "full")
-    tree = Tree(udh.spec)
-    return Landmarks(tree, landmark_placements(udh.spec)).all_positions(tree.forward(np.zeros(len(tree.joint_names))))
-
-
-@cache
-def thumb_frame_offset(side: str) -> np.ndarray:
-    """The turn from `frames.thumb_hand_frame` to `frames.hand_frame` of an
-    open hand (the UDH's at rest), so that both name the same hand frame."""
-    from hotu_drake.retarget import frames
-
-    rest = _udh_rest()
-    return frames.thumb_hand_frame(rest, side).T @ frames.hand_frame(rest, side)
 
 
 def rotations_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -86,18 +59,18 @@ def _segment(key: tuple) -> tuple[str, str]:
     return side + "_", joint
 
 
-def neutral_calibration(retargeter: Retargeter, source_landmarks: set[str]) -> dict:
+def neutral_calibration(retargeter, source_landmarks: set[str]) -> dict:
     """{direction target key: (body frame, C, parent key or None, parent's rest
-    direction in the body frame)} of one embodiment; empty for a source
-    without a torso."""
-    from hotu_drake.retarget.retargeter import _source_frames
+    direction in the body frame)} of one embodiment, measured by its
+    `retargeter.Retargeter` (which calls this, so is not imported); empty for
+    a source without a torso."""
     from hotu_drake.retarget.tree import axis_angles, rotation_vector
 
     r = retargeter
-    src = {name: point[None] for name, point in _udh_rest().items() if name in source_landmarks}
+    src = {name: point[None] for name, point in udh_rest_landmarks().items() if name in source_landmarks}
     if not {"pelvis", "chest", "left_shoulder", "right_shoulder"} <= set(src):
         return {}
-    src_frames = _source_frames(src)
+    src_frames = source_frames(src)
     q = r.embodiment.standing_pose.copy()
     base, rotations, positions = r.root_path(src, src_frames, r.scale_ratio(src))
     if base is not None:

@@ -20,6 +20,8 @@ TRUST_REGION = 0.6  # rad (or m) per iteration
 # targets depend on the levels before it, which the one linearisation of a
 # level holds fixed: so the torso gets a level of its own.
 FINGER_LEVEL = 4
+# A hand whose finger directions (in its frame) change less keeps its shape: its finger part needs no new solve.
+SHAPE_TOLERANCE = 1e-4
 
 
 class PartProblem:

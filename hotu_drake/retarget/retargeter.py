@@ -25,10 +25,11 @@ from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import landmarks_of
 from hotu_drake.objects import scale_object_poses
 from hotu_drake.retarget import frames
-from hotu_drake.retarget.clip_programs import SHAPE_TOLERANCE, retarget_clip
+from hotu_drake.retarget.clip_programs import retarget_clip
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
-from hotu_drake.retarget.neutral import calibrate, neutral_calibration, thumb_frame_offset
-from hotu_drake.retarget.part_ik import FINGER_LEVEL, PartProblem
+from hotu_drake.retarget.neutral import calibrate, neutral_calibration
+from hotu_drake.retarget.part_ik import FINGER_LEVEL, SHAPE_TOLERANCE, PartProblem
+from hotu_drake.retarget.source_frames import hand_frame_kind, source_frames
 from hotu_drake.retarget.targets import BendPlane, Coupling, Direction, Landmarks, Orientation, Position
 from hotu_drake.retarget.tree import Tree, cross, rotation_vector
 from hotu_drake.rotations import heading_rotation, matrix_to_quat
@@ -75,36 +76,6 @@ class _Part:
     # shape needs no new solve).
     signature: np.ndarray | None = None
     settled: bool = False
-
-
-def hand_frame_kind(names, side: str) -> str | None:
-    """How landmarks `names` define a hand frame: across the knuckles, towards
-    the thumb's tip (a capture without a knuckle line), or not at all."""
-    names = set(names)
-    if not {f"{side}_wrist", f"{side}_hand"} <= names:
-        return None
-    if {f"{side}_index_1", f"{side}_little_1"} <= names:
-        return "knuckles"
-    return "thumb" if f"{side}_thumb_4" in names else None
-
-
-def _source_frames(src: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """Body frames of the source over all frames, where its landmarks allow."""
-    out = {"chest": frames.chest_frame(src)}
-    # A capture of the upper body has no pelvis: the root stands upright, turned with the chest.
-    out["pelvis"] = frames.pelvis_frame(src) if "left_hip" in src else heading_rotation(out["chest"])
-    if "head_top" in src:
-        out["head"] = frames.head_frame(src)
-    lateral = out["pelvis"][:, :, 1]
-    for side in SIDES:
-        kind = hand_frame_kind(src, side)
-        if kind == "knuckles":
-            out[f"{side}_hand"] = frames.hand_frame(src, side)
-        elif kind == "thumb":
-            out[f"{side}_hand"] = frames.thumb_hand_frame(src, side) @ thumb_frame_offset(side)
-        if f"{side}_toe" in src:
-            out[f"{side}_foot"] = frames.foot_frame(src, side, lateral)
-    return out
 
 
 def leg_length(p: dict[str, np.ndarray]) -> float:
@@ -389,7 +360,7 @@ class Retargeter:
     ) -> MotionClip:
         """Retarget landmark trajectories {name: (T, 3)} sampled at `fps`."""
         frames_count = len(next(iter(src.values())))
-        src_frames = _source_frames(src)
+        src_frames = source_frames(src)
         contacts = {}
         if self.legged:  # the source's own foot contacts carry through human -> UDH -> robot
             contacts = foot_contacts_of(source, frames_count) or detect_foot_contacts(src, fps)
@@ -541,7 +512,7 @@ class RetargetStream:
         whether its foot is in contact (none: no foot locking this frame).
         """
         r, q = self.retargeter, self.q
-        src_frames = _source_frames(src) if src_frames is None else src_frames
+        src_frames = source_frames(src) if src_frames is None else src_frames
         base, rotations, positions = r.root_path(src, src_frames, self.ratio)
         if base is not None:
             q[r.base] = base[0]
