@@ -1,6 +1,6 @@
 """Simulation diagrams: a `Scenario` composed from the pipeline's parts.
 
-`build_simulation(scenario)` adds, in order:
+`AddScenario(builder, scenario)` adds, in order, to a `DiagramBuilder`:
 
     plant + scene graph      MultibodyPlantConfig           (Drake's AddMultibodyPlant)
     robot, floor             plant.add_robot, add_ground
@@ -17,11 +17,18 @@
     Meshcat                  Drake's ApplyVisualizationConfig
 
 Every system is added by name (`pd`, `reference`, `policy`, `observation`,
-`interaction_graph`, `perturbation`, `object_holder`, ...), and the useful
-ports are exported from the diagram: outputs `observation`,
-`amp_observation`, `action`, `reference_joint_positions`, `interaction`,
-`goal`, `interaction_graph`; inputs `action` and `twist` (fixed at the standing
-action and zero twist until a user sets them).
+`interaction_graph`, `perturbation`, `object_holder`, ...), and it returns
+them (`ScenarioSystems`) with the useful ports by name: outputs
+`observation`, `amp_observation`, `action`, `reference_joint_positions`,
+`interaction`, `goal`, `interaction_graph`, ...; inputs `action` and `twist`.
+A user adds their own systems to the same builder (a logger, an estimator,
+a controller feeding `action`; `ScenarioSystems.hold_inputs_at_rest` feeds
+the inputs left over), builds, and starts the scenario with
+`ScenarioSystems.set_initial_state(context)`.
+
+`build_simulation(scenario)` is the convenience over it: a fresh builder,
+those ports exported from the diagram (the inputs fixed at the standing
+action and zero twist until a user sets them), the simulator initialised.
 """
 
 from __future__ import annotations
@@ -35,7 +42,7 @@ from pydrake.lcm import DrakeLcm
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant
 from pydrake.multibody.tree import ModelInstanceIndex
 from pydrake.systems.analysis import Simulator
-from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
+from pydrake.systems.framework import Context, Diagram, DiagramBuilder, InputPort, OutputPort, System
 from pydrake.systems.primitives import ConstantVectorSource, Multiplexer, SharedPointerSystem
 from pydrake.visualization import ApplyVisualizationConfig
 
@@ -77,7 +84,7 @@ from hotu_drake.systems.reference import AddReferenceMotion, ReferenceMotionSour
 from hotu_drake.systems.skill import AddSkillPolicy, load_skill_policy
 from hotu_drake.systems.transfer_reference import AddTransferReference, TransferReference
 
-__all__ = ["Simulation", "build_simulation", "build_standing_simulation"]
+__all__ = ["AddScenario", "ScenarioSystems", "Simulation", "build_simulation", "build_standing_simulation"]
 
 
 @dataclass
@@ -118,6 +125,52 @@ class Simulation:
 
 
 @dataclass
+class ScenarioSystems:
+    """A scenario's systems in a `DiagramBuilder` (what `AddScenario` returns).
+
+    `outputs` and `inputs` are the ports `build_simulation` exports from its
+    diagram, by the same names: connect or export them in your own diagram
+    (or `hold_inputs_at_rest`). After `Build`, `set_initial_state` on your
+    diagram's context starts the scenario as `build_simulation` does.
+    """
+
+    plant: MultibodyPlant
+    scene_graph: SceneGraph
+    model: ModelInstanceIndex
+    embodiment: Embodiment
+    scenario: Scenario
+    systems: dict[str, System]  # name -> every system the scenario added
+    outputs: dict[str, OutputPort]  # observation, amp_observation, action, interaction, ...
+    inputs: dict[str, InputPort]  # action (ActionInput), twist (BaseTwist)
+    objects: dict = field(default_factory=dict)  # object name -> model instance
+    reference: MotionClip | None = None
+    cubes: list = field(default_factory=list)  # perturbation cubes' model instances
+
+    def hold_inputs_at_rest(self, builder: DiagramBuilder) -> None:
+        """Feed each of `inputs` that is neither connected nor exported yet a
+        constant at rest (`<name>_at_rest`: the standing action, zero twist),
+        as `build_simulation` holds them. Call it after your own wiring, before `Build`."""
+        for name, port in self.inputs.items():
+            if not builder.IsConnectedOrExported(port):
+                rest = ConstantVectorSource(_rest_value(name, port, self.embodiment))
+                builder.Connect(builder.AddNamedSystem(f"{name}_at_rest", rest).get_output_port(), port)
+
+    def set_initial_state(self, context: Context) -> None:
+        """Start the scenario in `context`, the root context of the diagram
+        holding these systems, as `build_simulation` does: the robot standing
+        (dropped) or on its reference clip, objects and cubes placed. Call it
+        before `Simulator.Initialize()`, and again to restart."""
+        plant, scenario = self.plant, self.scenario
+        plant_context = plant.GetMyMutableContextFromRoot(context)
+        fixed = scenario.fixed_base and self.embodiment.floating_base
+        playback = _initial_playback(scenario, self.reference)
+        drop = scenario.initial.drop_height
+        set_robot_state(plant, plant_context, self.model, self.embodiment, playback, drop_height=drop, fixed=fixed)
+        place_objects(plant, plant_context, self.objects, scenario.objects)
+        place_perturbation_cubes(plant, plant_context, self.cubes, scenario.perturbations)
+
+
+@dataclass
 class DiagramParts:
     """What the driver helpers below add systems with."""
 
@@ -130,29 +183,35 @@ class DiagramParts:
     clip: MotionClip | None
     graph: InteractionGraphSystem | None = None  # with a task object
     objects: dict = field(default_factory=dict)  # object name -> model instance
+    outputs: dict = field(default_factory=dict)  # name -> OutputPort, what build_simulation exports
+    inputs: dict = field(default_factory=dict)  # name -> InputPort, what build_simulation exports
 
     @property
     def explicit(self) -> bool:
         return self.scenario.controller == "explicit"
 
     def observation(self) -> ObservationSystem:
-        """The ObservationSystem, added (and its outputs exported) on first use."""
+        """The ObservationSystem, added (and its outputs listed) on first use."""
         if not self.builder.HasSubsystemNamed("observation"):
             observation = AddObservation(self.builder, self.plant, self.model, self.embodiment)
-            self.builder.ExportOutput(observation.GetOutputPort("observation"), "observation")
-            self.builder.ExportOutput(observation.GetOutputPort("amp_observation"), "amp_observation")
+            self.outputs["observation"] = observation.GetOutputPort("observation")
+            self.outputs["amp_observation"] = observation.GetOutputPort("amp_observation")
         return self.builder.GetSubsystemByName("observation")
 
 
-def build_simulation(
-    scenario: Scenario, meshcat: Meshcat | None = None, embodiment: Embodiment | None = None
-) -> Simulation:
-    """Build the diagram a scenario describes and initialise its simulator.
-    `embodiment` overrides the scenario's (e.g. a resized UDH)."""
+def AddScenario(
+    builder: DiagramBuilder,
+    scenario: Scenario,
+    meshcat: Meshcat | None = None,
+    embodiment: Embodiment | None = None,
+) -> ScenarioSystems:
+    """Add the systems a scenario describes to `builder` (plant and scene
+    graph included), leaving `Build` to the caller so that their own systems
+    can join them. `embodiment` overrides the scenario's (e.g. a resized UDH)."""
     emb = embodiment or embodiments.load(scenario.embodiment, scenario.hands)
     clip = _reference_clip(scenario, emb)
     fixed = scenario.fixed_base and emb.floating_base
-    builder = DiagramBuilder()
+    before = {system.get_name() for system in builder.GetSystems()}
     plant, scene_graph = AddMultibodyPlant(scenario.plant_config, builder)
     height = emb.standing_root_height + scenario.initial.drop_height if fixed else None
     model = add_robot(
@@ -177,8 +236,8 @@ def build_simulation(
         targets = np.array([o.target or o.position for o in task], dtype=float)
         graph = parts.graph = AddInteractionGraph(builder, plant, scene_graph, model, emb, bodies, targets)
         for name in ("interaction", "goal"):
-            builder.ExportOutput(graph.GetOutputPort(name), name)
-        builder.ExportOutput(graph.GetOutputPort("graph"), "interaction_graph")
+            parts.outputs[name] = graph.GetOutputPort(name)
+        parts.outputs["interaction_graph"] = graph.GetOutputPort("graph")
     AddPdControl(builder, plant, model, emb, add_driver(scenario.driver, parts), explicit=parts.explicit)
     if scenario.observation:
         parts.observation()
@@ -197,19 +256,34 @@ def build_simulation(
         # network needed), owned by the diagram.
         lcm = SharedPointerSystem.AddToBuilder(builder, DrakeLcm("memq://"))
         ApplyVisualizationConfig(scenario.visualization, builder, None, plant, scene_graph, meshcat, lcm)
+    systems = {system.get_name(): system for system in builder.GetSystems() if system.get_name() not in before}
+    return ScenarioSystems(
+        plant, scene_graph, model, emb, scenario, systems, parts.outputs, parts.inputs, objects, clip, cubes
+    )
+
+
+def build_simulation(
+    scenario: Scenario, meshcat: Meshcat | None = None, embodiment: Embodiment | None = None
+) -> Simulation:
+    """Build the diagram a scenario describes, its ports exported, and
+    initialise its simulator (`AddScenario` on a fresh builder).
+    `embodiment` overrides the scenario's (e.g. a resized UDH)."""
+    builder = DiagramBuilder()
+    parts = AddScenario(builder, scenario, meshcat, embodiment)
+    for name, port in parts.outputs.items():
+        builder.ExportOutput(port, name)
+    for name, port in parts.inputs.items():
+        builder.ExportInput(port, name)
     diagram = builder.Build()
 
     simulator = Simulator(diagram)
     context = simulator.get_mutable_context()
-    _hold_exported_inputs(diagram, context, emb)
-    plant_context = plant.GetMyMutableContextFromRoot(context)
-    playback = _initial_playback(scenario, clip)
-    set_robot_state(plant, plant_context, model, emb, playback, drop_height=scenario.initial.drop_height, fixed=fixed)
-    place_objects(plant, plant_context, objects, scenario.objects)
-    place_perturbation_cubes(plant, plant_context, cubes, scenario.perturbations)
+    _hold_exported_inputs(diagram, context, parts.embodiment)
+    parts.set_initial_state(context)
     simulator.Initialize()
     systems = {system.get_name(): system for system in diagram.GetSystems()}
-    return Simulation(diagram, plant, model, simulator, emb, scenario, meshcat, systems, objects, clip)
+    plant, model, emb = parts.plant, parts.model, parts.embodiment
+    return Simulation(diagram, plant, model, simulator, emb, scenario, meshcat, systems, parts.objects, parts.reference)
 
 
 def build_standing_simulation(
@@ -258,7 +332,7 @@ def _(driver: StandingPose, parts: DiagramParts) -> OutputPort:
 def _(driver: ReferenceTracking, parts: DiagramParts) -> OutputPort:
     source = _reference_source(parts.scenario, parts.embodiment, parts.clip, driver.loop)
     reference, targets = AddReferenceMotion(parts.builder, source, desired_state=not parts.explicit)
-    parts.builder.ExportOutput(reference.GetOutputPort("joint_positions"), "reference_joint_positions")
+    parts.outputs["reference_joint_positions"] = reference.GetOutputPort("joint_positions")
     return targets
 
 
@@ -288,7 +362,7 @@ def _policy_targets(parts: DiagramParts, network, observation: OutputPort, laten
     policy = AddPolicy(parts.builder, network, observation, parts.scenario.control_rate, latents)
     targets = AddActionToTargets(parts.builder, parts.embodiment, parts.explicit)
     parts.builder.Connect(policy.GetOutputPort("action"), targets.get_input_port())
-    parts.builder.ExportOutput(policy.GetOutputPort("action"), "action")
+    parts.outputs["action"] = policy.GetOutputPort("action")
     return targets.get_output_port()
 
 
@@ -322,10 +396,10 @@ def _(driver: SkillCheckpoint, parts: DiagramParts) -> OutputPort:
             builder, parts.plant, parts.model, parts.observation(), reference, emb.spec.root.name, body
         )
         reference_port = tracker.GetOutputPort("reference")
-        builder.ExportOutput(reference_port, "transfer_reference")
+        parts.outputs["transfer_reference"] = reference_port
     goal, interaction = graph.GetOutputPort("goal"), graph.GetOutputPort("interaction")
     latents = AddSkillPolicy(builder, skill, meta, observation, goal, interaction, rate, reference_port)
-    builder.ExportOutput(latents.GetOutputPort("latents"), "latents")
+    parts.outputs["latents"] = latents.GetOutputPort("latents")
     return _policy_targets(parts, network, observation, latents)
 
 
@@ -349,14 +423,14 @@ def _transfer_reference(driver: SkillCheckpoint, parts: DiagramParts) -> Transfe
 def _(driver: ActionInput, parts: DiagramParts) -> OutputPort:
     parts.observation()
     targets = AddActionToTargets(parts.builder, parts.embodiment, parts.explicit)
-    parts.builder.ExportInput(targets.get_input_port(), "action")
+    parts.inputs["action"] = targets.get_input_port()
     return targets.get_output_port()
 
 
 @add_driver.register
 def _(driver: BaseTwist, parts: DiagramParts) -> OutputPort:
     command = AddPlanarBaseCommand(parts.builder, parts.embodiment, parts.scenario.time_step)
-    parts.builder.ExportInput(command.GetInputPort("twist"), "twist")
+    parts.inputs["twist"] = command.GetInputPort("twist")
     return command.GetOutputPort("desired_state")
 
 
@@ -391,5 +465,9 @@ def _hold_exported_inputs(diagram: Diagram, context, emb: Embodiment) -> None:
     """Exported inputs start at rest: the standing action, zero twist."""
     for index in range(diagram.num_input_ports()):
         port = diagram.get_input_port(index)
-        value = standing_action(emb) if port.get_name() == "action" else np.zeros(port.size())
-        port.FixValue(context, value)
+        port.FixValue(context, _rest_value(port.get_name(), port, emb))
+
+
+def _rest_value(name: str, port, emb: Embodiment) -> np.ndarray:
+    """What a scenario input holds until a user sets it: the standing action, zero twist."""
+    return standing_action(emb) if name == "action" else np.zeros(port.size())
