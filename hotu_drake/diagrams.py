@@ -29,10 +29,14 @@ the inputs left over), builds, and starts the scenario with
 `build_simulation(scenario)` is the convenience over it: a fresh builder,
 those ports exported from the diagram (the inputs fixed at the standing
 action and zero twist until a user sets them), the simulator initialised.
+`run_scenario(scenario)` simulates one and measures it (falls, torques,
+tracking): the figures `python -m hotu_drake.simulate` prints.
 """
 
 from __future__ import annotations
 
+import hashlib
+import time
 from dataclasses import dataclass, field
 from functools import singledispatch
 
@@ -84,7 +88,15 @@ from hotu_drake.systems.reference import AddReferenceMotion, ReferenceMotionSour
 from hotu_drake.systems.skill import AddSkillPolicy, load_skill_policy
 from hotu_drake.systems.transfer_reference import AddTransferReference, TransferReference
 
-__all__ = ["AddScenario", "ScenarioSystems", "Simulation", "build_simulation", "build_standing_simulation"]
+__all__ = [
+    "AddScenario",
+    "ScenarioSystems",
+    "Simulation",
+    "build_simulation",
+    "build_standing_simulation",
+    "run_scenario",
+    "state_checksum",
+]
 
 
 @dataclass
@@ -312,6 +324,72 @@ def build_standing_simulation(
 
 
 # --- drivers: what sets the PD targets ------------------------------------------------
+
+
+# -- running a scenario ------------------------------------------------------------
+
+
+CHUNK = 0.05  # s between checks of falls and torques
+
+
+def state_checksum(values: np.ndarray) -> str:
+    """A short digest of a state, rounded so it is stable on one machine
+    (not across machines: a value near a rounding boundary may round the
+    other way; compare `run(..., state=True)`'s positions and velocities with a tolerance)."""
+    rounded = np.round(np.asarray(values, dtype=float), 6) + 0.0  # no negative zeros
+    return hashlib.sha256(rounded.tobytes()).hexdigest()[:16]
+
+
+def run_scenario(scenario: Scenario, duration: float | None = None, meshcat=None, state: bool = False) -> dict:
+    """Simulate a scenario; the figures `python -m hotu_drake.simulate`
+    prints: `realtime_factor`, `fell` (a body other than a foot touched the
+    floor, or the pelvis dropped below half its standing height),
+    `min_pelvis_height`, `max_torque_ratio` (largest |torque| over its
+    effort limit), `checksum` (`state_checksum` of the final state) and,
+    tracking a reference, `tracking_rms` (rad, joint positions against the
+    reference, sampled every 50 ms); with `state`, the final `positions`
+    and `velocities`."""
+    sim = build_simulation(scenario, meshcat=meshcat)
+    emb, plant, context = sim.embodiment, sim.plant, sim.plant_context()
+    fall = sim.fall_check()
+    floating = fall.can_fall
+    tracking = sim.diagram.HasOutputPort("reference_joint_positions")
+    end = duration if duration is not None else scenario.duration
+    fell, lowest, torque_ratio, wall, errors = False, np.inf, 0.0, 0.0, []
+    if meshcat is not None:
+        meshcat.StartRecording(set_visualizations_while_recording=False)
+    t = 0.0
+    while t < end - 1e-9:
+        t = min(end, t + CHUNK)
+        start = time.perf_counter()
+        sim.simulator.AdvanceTo(t)
+        wall += time.perf_counter() - start
+        torques = plant.get_net_actuation_output_port(sim.model).Eval(context)
+        torque_ratio = max(torque_ratio, float(np.max(np.abs(torques) / emb.effort_limits)))
+        if floating:
+            lowest = min(lowest, fall.pelvis_height(context))
+            fell = fell or fall(context)
+        if tracking:
+            reference = sim.output("reference_joint_positions")
+            errors.append(np.fromiter(sim.joint_positions().values(), float) - reference)
+    if meshcat is not None:
+        meshcat.StopRecording()
+        meshcat.PublishRecording()
+    figures = {
+        "scenario": scenario.embodiment,
+        "duration": end,
+        "realtime_factor": round(end / wall, 2) if wall > 0 else None,
+        "fell": bool(fell),
+        "min_pelvis_height": round(float(lowest), 4) if floating else None,
+        "max_torque_ratio": round(torque_ratio, 4),
+        "checksum": state_checksum(plant.GetPositionsAndVelocities(context)),
+    }
+    if state:
+        figures["positions"] = plant.GetPositions(context).tolist()
+        figures["velocities"] = plant.GetVelocities(context).tolist()
+    if errors:
+        figures["tracking_rms"] = round(float(np.sqrt(np.mean(np.square(errors)))), 4)
+    return figures
 
 
 @singledispatch

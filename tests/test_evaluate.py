@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from hotu_drake.evaluate import main
+from hotu_drake.commands.tables import main
 
 POLICIES = Path(__file__).resolve().parent.parent / "systems" / "policies"
 MACHINE = {"cpu_cores": 2, "python": "3.11", "date": "2026-11-24"}

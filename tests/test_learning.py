@@ -9,7 +9,7 @@ import torch
 from hotu_drake.learning.agent import Agent
 from hotu_drake.learning.config import preset
 from hotu_drake.learning.latents import LatentSchedule, sample_sphere
-from hotu_drake.learning.models import StyleNetwork
+from hotu_drake.learning.networks import StyleNetwork
 from hotu_drake.learning.normalizer import Normalizer
 from hotu_drake.learning.parts import resolve_groups
 from hotu_drake.learning.ppo import gae
@@ -208,14 +208,7 @@ def test_style_reward_of_the_trained_policy_rises_well_above_the_initial_one():
     def windows() -> np.ndarray:
         agent.model.eval()
         rollout = agent.collect()
-        amp = {key: [] for key in demos.layout.keys}  # the groups' columns back under the env's keys
-        for g in agent.groups:
-            start = 0
-            for key, columns in g.columns.items():
-                amp[key].append(rollout.windows[g.name][..., start : start + len(columns)])
-                start += len(columns)
-        joined = {key: np.concatenate(parts, axis=-1) for key, parts in amp.items()}
-        return whole.gather(joined).reshape(-1, demos.history, whole.frame_size)
+        return whole.gather(rollout.amp).reshape(-1, demos.history, whole.frame_size)
 
     initial = windows()
     judge = _train_judge(demos.windows(whole), initial, updates=200)
@@ -281,8 +274,8 @@ def test_a_low_style_reward_ends_episodes_after_the_patience():
     agent = Agent(config, envs, toy_env.demonstrations(), seed=0)
     rollout = agent.collect()
     envs.close()
-    assert rollout.style_terminated.sum() > 0
-    assert np.all(rollout.terminated[rollout.style_terminated])  # a cut is an end without bootstrap
+    assert rollout.cut.sum() > 0
+    assert np.all(rollout.terminated[rollout.cut])  # a cut is an end without bootstrap
     assert set(agent.episodes.lengths) == {5}
 
 

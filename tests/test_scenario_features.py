@@ -37,7 +37,7 @@ def test_reference_state_initialisation_starts_on_the_clip():
 
 
 def test_fixed_base_tracking_scenario_follows_the_walk():
-    from hotu_drake.simulate import run
+    from hotu_drake.diagrams import run_scenario as run
 
     figures = run(load_scenario("track_walk_udh"), duration=1.0)
     assert figures["tracking_rms"] < 0.05  # rad

@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hotu_drake.diagrams import run_scenario as run
 from hotu_drake.scenario import load_scenario, shipped_scenarios
-from hotu_drake.simulate import run
 
 STATES = Path(__file__).parent / "data" / "scenario_states.json"
 SCENARIOS = sorted(shipped_scenarios())

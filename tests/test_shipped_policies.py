@@ -4,9 +4,9 @@ scenarios (`make demo` replays them)."""
 import numpy as np
 import pytest
 
+from hotu_drake.diagrams import run_scenario as run
 from hotu_drake.learning.checkpoint import read_checkpoint
 from hotu_drake.scenario import load_scenario, shipped_scenarios
-from hotu_drake.simulate import run
 
 LEARNED = sorted(n for n in shipped_scenarios() if n.startswith("learned_"))
 

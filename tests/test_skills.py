@@ -10,12 +10,12 @@ from torch import nn
 
 from hotu_drake.learning.config import preset
 from hotu_drake.learning.evaluation import evaluate_task
+from hotu_drake.learning.high_level import to_latents
 from hotu_drake.learning.interaction import InteractionJudge, transitions
 from hotu_drake.learning.low_level import LowLevelController
-from hotu_drake.learning.models import StyleNetwork
+from hotu_drake.learning.networks import PolicyConfig, PolicyNetwork, StyleNetwork
 from hotu_drake.learning.parts import resolve_groups
-from hotu_drake.learning.policy import PolicyConfig, PolicyNetwork
-from hotu_drake.learning.skill_agent import SkillAgent, SkillController, to_latents
+from hotu_drake.learning.skill_agent import SkillAgent
 from hotu_drake.learning.skill_config import SkillConfig, skill_config_from_dict, skill_preset
 from tests import toy_env
 
@@ -88,13 +88,11 @@ def test_eq3_combines_the_terms_with_the_configured_weights():
     agent = SkillAgent(config, envs, _toy_controller(), _demos(), seed=0)
     terms = {"task": np.array([1.0, 0.0]), "interaction": np.array([0.0, 1.0]), "style": np.array([1.0, 1.0])}
     np.testing.assert_allclose(agent.combine(terms), [0.7, 0.5])
-    rollout = agent.collect()
+    terms = agent.rewards(agent.collect())
     np.testing.assert_allclose(
-        rollout.rewards,
-        0.5 * rollout.terms["task"] + 0.3 * rollout.terms["interaction"] + 0.2 * rollout.terms["style"],
-        rtol=1e-6,
+        terms["total"], 0.5 * terms["task"] + 0.3 * terms["interaction"] + 0.2 * terms["style"], rtol=1e-6
     )
-    assert rollout.terms["interaction"].std() > 0 and rollout.terms["style"].std() > 0  # both judges answered
+    assert terms["interaction"].std() > 0 and terms["style"].std() > 0  # both judges answered
     envs.close()
 
 
@@ -115,7 +113,7 @@ def test_the_high_level_action_is_held_for_k_control_steps(hold_steps):
     agent = SkillAgent(_tiny(hold_steps=hold_steps), envs, spy, _demos(), seed=1)
     rollout = agent.collect()
     seen = np.array(spy.seen)  # (T * k, N, 4)
-    assert len(seen) == agent.config.ppo.horizon * hold_steps == rollout.control_steps // 2
+    assert len(seen) == agent.config.ppo.horizon * hold_steps == agent.num_samples(rollout) // 2
     blocks = seen.reshape(agent.config.ppo.horizon, hold_steps, 2, 4)
     np.testing.assert_array_equal(blocks, np.repeat(blocks[:, :1], hold_steps, axis=1))  # held inside a step
     assert not np.allclose(blocks[1:, 0], blocks[:-1, 0])  # and new at each high-level step
@@ -131,11 +129,11 @@ def test_the_high_level_learns_to_reach_the_goal_through_its_controller():
     config.ppo.gamma = config.ppo.lam = 0.9  # a high-level step moves the toy 7 cm: short horizons learn fast
     envs = toy_env.task_vector_env(4, HISTORY)
     agent = SkillAgent(config, envs, _toy_controller(), seed=0)
-    before = evaluate_task(envs, SkillController(agent), episodes=8, seed=3, max_steps=60)
+    before = evaluate_task(envs, agent.controller(), episodes=8, seed=3, max_steps=60)
     assert "reward/interaction" not in agent.iteration()  # ase: no D_I, no interaction term
     rewards = [agent.iteration()["reward/task"] for _ in range(59)]
     assert np.mean(rewards[-10:]) > np.mean(rewards[:10]) + 0.15, rewards
-    after = evaluate_task(envs, SkillController(agent), episodes=8, seed=3, max_steps=60)
+    after = evaluate_task(envs, agent.controller(), episodes=8, seed=3, max_steps=60)
     assert after["episodes"] == 8 and after["normalized_return"] > before["normalized_return"] + 0.15
     envs.close()
 

@@ -12,9 +12,9 @@ import time
 import numpy as np
 import pytest
 
+from hotu_drake.commands.train import main
 from hotu_drake.learning.checkpoint import read_checkpoint
 from hotu_drake.scenario import InitialCondition, PolicyCheckpoint, Scenario
-from hotu_drake.train import main
 
 TINY = """\
 ppo: {horizon: 32, minibatch_size: 32, epochs: 2}
@@ -134,3 +134,21 @@ def test_trace_draws_an_episode_against_the_references(bruce_run, tmp_path, caps
     code = run_cli(main, ["trace", str(bruce_run), "--out", str(tmp_path / "no.png"), "--parts", "torso"])
     assert code == 2 and "no part 'torso'" in capsys.readouterr().err  # Bruce has no torso joint
     assert not (tmp_path / "no.png").exists()
+
+
+def test_reach_measures_where_each_latent_takes_the_hands_and_pelvis(bruce_run, tmp_path, capsys):
+    from hotu_drake import embodiment
+    from hotu_drake.cli import run_cli
+
+    assert main(["reach", str(bruce_run), "--latents", "3", "--seconds", "0.5"]) == 0
+    figures = json.loads(capsys.readouterr().out)
+    ends = np.array(figures["ends"])
+    assert ends.shape == (3, 9) and figures["latents"] == 3
+    np.testing.assert_allclose(figures["spread"], ends.std(0), atol=1e-4)
+    bruce = embodiment.load("bruce", "none")
+    if figures["fell"] == 0:  # standing: the pelvis at its height, the hands beside and below it
+        np.testing.assert_allclose(ends[:, 8], bruce.standing_pelvis_height, atol=0.1)
+    hands = np.linalg.norm(ends[:, :6].reshape(3, 2, 3), axis=-1)
+    assert np.all((hands > 0.05) & (hands < 0.8)), hands
+    code = run_cli(main, ["reach", str(tmp_path)])
+    assert code == 2 and "run:" in capsys.readouterr().err

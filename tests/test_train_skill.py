@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 import torch
 
+from hotu_drake.commands.train import main
+from hotu_drake.learning import high_level_input, to_latents
 from hotu_drake.learning.checkpoint import load_checkpoint, read_checkpoint
-from hotu_drake.learning.skill_agent import high_level_input, to_latents
 from hotu_drake.scenario import load_scenario
-from hotu_drake.train import main
 from tests.test_train import TINY as BEHAVIOR
 
 SKILL = """\

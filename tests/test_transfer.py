@@ -10,10 +10,9 @@ import pytest
 
 import hotu_drake.envs  # noqa: F401
 from hotu_drake.envs.recording import record_episode
-from hotu_drake.envs.transfer import TARGET_TRACK, tracking_reward
+from hotu_drake.envs.transfer import TARGET_TRACK, retarget_episode, tracking_reward, with_target
 from hotu_drake.errors import InputError
 from hotu_drake.objects import BOX_SIZE
-from hotu_drake.transfer import retarget_episode, with_target
 
 
 def _standing_episode(robot: str, seed: int, steps: int):

@@ -20,18 +20,18 @@ def train_throughput(
     """Median samples/s, learner share and seconds of `iterations` iterations with `workers` workers."""
     import torch
 
+    from hotu_drake.envs.runs import imitation_run
     from hotu_drake.learning.agent import Agent
-    from hotu_drake.train import _demonstrations, _vector_env
 
     config = preset(algo)
     config.warm_start.epochs = 0
     config.environment.reference_init_probability = 0.0
     torch.set_num_threads(config.torch_threads)
     settings = {"robot": robot, "hands": "none", "motions": motions, "algo": algo, "seed": 0}
-    demos, standing = _demonstrations(settings, config)
-    envs = _vector_env(settings, config, workers, None)
+    run = imitation_run(settings, config)
+    envs = run.vector_env(workers)
     try:
-        agent = Agent(config, envs, demos, action_offset=standing, seed=0)
+        agent = Agent(config, envs, run.demonstrations, action_offset=run.standing_action, seed=0)
         rows = [agent.iteration() for _ in range(warmup + iterations)][warmup:]
     finally:
         envs.close()

@@ -10,13 +10,16 @@ Importing this package registers:
   (`transfer`): a task on a robot, tracking retargeted UDH skill episodes.
 
 Episodes are cut at 300 control steps (10 s) by gymnasium's TimeLimit.
-The rollout workers (`EnvSpec`, `make_vector_env`, `RolloutCollector`)
-live in `hotu_drake.learning.rollout` (no pydrake) and are re-exported here.
+The rollout workers and the rollout loop (`EnvSpec`, `make_vector_env`,
+`RolloutCollector`, `Rollout`) live in `hotu_drake.learning.rollout` (no
+pydrake) and are re-exported here. Beside the environments: `runs` (a
+training run's environments and demonstrations), `recording` (an episode
+as a clip), `reach` (how far a controller's latents move its body).
 """
 
 from gymnasium.envs.registration import register, registry
 
-from hotu_drake.learning.rollout import EnvSpec, RolloutBatch, RolloutCollector, make_vector_env
+from hotu_drake.learning.rollout import EnvSpec, Rollout, RolloutCollector, make_vector_env
 
 ENV_IDS: dict[str, str] = {
     "hotu_drake/Imitation-v0": "hotu_drake.envs.imitation:ImitationEnv",
@@ -31,4 +34,4 @@ for _id, _entry in ENV_IDS.items():
     if _id not in registry:
         register(id=_id, entry_point=_entry, max_episode_steps=MAX_EPISODE_STEPS, disable_env_checker=True)
 
-__all__ = ["ENV_IDS", "EnvSpec", "RolloutBatch", "RolloutCollector", "make_vector_env"]
+__all__ = ["ENV_IDS", "EnvSpec", "Rollout", "RolloutCollector", "make_vector_env"]

@@ -350,5 +350,10 @@ class DiagramEnv(gym.Env):
     def pelvis_height(self) -> float:
         return self._fall.pelvis_height(self._plant_context)
 
+    def body_position(self, key_body: str) -> np.ndarray:
+        """A key body's (`embodiment.key_bodies`: pelvis, hands, feet) position in the world now."""
+        body = self.sim.plant.GetBodyByName(self.embodiment.key_bodies[key_body], self.sim.model)
+        return self.sim.plant.EvalBodyPoseInWorld(self._plant_context, body).translation().copy()
+
     def _fell(self) -> bool:
         return self._fall(self._plant_context)

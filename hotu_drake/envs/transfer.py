@@ -5,7 +5,7 @@ retargeting what the UDH did and fine-tuning a small layer that drives the
 robot's own behavior controller to reproduce it. `BoxCarryTransfer-v0`
 and `DrillGraspTransfer-v0` are the task environments with one of those
 reference episodes (`references`: `.npz` clips of the robot, made by
-`hotu_drake.transfer`) chosen at every reset:
+`make_references`, below) chosen at every reset:
 
 - the task is the reference's own: the object starts where the
   reference's track starts and its target is the reference's
@@ -17,16 +17,39 @@ reference episodes (`references`: `.npz` clips of the robot, made by
 - the reward is tracking (`tracking_reward`), in [0, 1]; the task's own
   reward is kept in `info["task_reward"]` (and its terms, success and
   goal as in the task environment), so a transfer is judged on the task.
+
+The references come from here too (step one of the transfer):
+
+- `record_skill_episodes`: the UDH skill run's deterministic two-level
+  controller (`TwoLevelController`, from the two `policy.pt` files) on
+  seeded task instances, each episode recorded as a clip
+  (`envs.recording`) with the task's target as a `target_marker` track;
+- `retarget_episode`: one such clip on a robot (`retarget.pipeline.to_robot`:
+  joints, root, key bodies, contacts, the object and target tracks scaled
+  to the robot's size);
+- `make_references`: both for a list of seeds, saved as the clips a
+  fine-tune (`python -m hotu_drake.train finetune`) tracks.
 """
 
+import dataclasses
+import json
+import time
 from collections.abc import Sequence
+from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
+import torch
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RigidTransform
 
+from hotu_drake.envs.recording import record_episode
 from hotu_drake.envs.tasks import BoxCarryEnv, DrillGraspEnv
 from hotu_drake.errors import InputError, check_number
+from hotu_drake.learning import high_level_input, load_checkpoint, to_latents
+from hotu_drake.learning.skill_config import TASKS, load_skill_config
+from hotu_drake.motion.clip import MotionClip
+from hotu_drake.retarget.pipeline import to_robot
 from hotu_drake.systems.transfer_reference import TARGET_TRACK, TransferReference, reference_size
 
 __all__ = ["TARGET_TRACK", "BoxCarryTransferEnv", "DrillGraspTransferEnv", "tracking_reward"]
@@ -128,3 +151,117 @@ class BoxCarryTransferEnv(_TransferMixin, BoxCarryEnv):
 
 class DrillGraspTransferEnv(_TransferMixin, DrillGraspEnv):
     """DrillGrasp-v0 on a robot, tracking retargeted UDH drill-grasp episodes."""
+
+
+# -- references: a UDH skill's episodes, retargeted ------------------------------------
+
+
+def record_skill_episodes(
+    skill_run: str | Path, seeds: Sequence[int], llc: str | Path | None = None, max_steps: int = 300
+) -> list[MotionClip]:
+    """One UDH clip per seed: the skill run's two-level controller (its
+    `policy.pt` over the behavior controller's `policy.pt`: `llc`, a run
+    folder or the file, by default the run's own) on the task instance that
+    seed draws (the run's curriculum), from a standing start. The high
+    level's mean is held for the run's hold steps, as in training."""
+    run = Path(skill_run)
+    settings = json.loads((run / "run.json").read_text())
+    config = load_skill_config(run / "config.yaml")
+    controller = TwoLevelController(run / "policy.pt", Path(llc) if llc else skill_controller(run))
+    e = config.environment
+    options = {"termination_height": e.termination_height, "reference_init_probability": 0.0, **e.task}
+    env = gym.make(TASKS[settings["task"]], robot=settings["robot"], hands=settings["hands"], **options).unwrapped
+    try:
+        clips = []
+        for seed in seeds:
+            act = controller.episode()
+            clip = record_episode(env, act, seed, max_steps, f"{run.name}/seed_{seed}", options={"init": "default"})
+            clips.append(with_target(clip, env.target))
+    finally:
+        env.close()
+    return clips
+
+
+def skill_controller(skill_run: str | Path) -> Path:
+    """The run folder of the behavior controller a skill run drives: the one
+    its `run.json` names, else a folder of that name beside the run (a copied
+    results tree); `InputError` if neither has a `policy.pt`."""
+    run = Path(skill_run)
+    recorded = Path(json.loads((run / "run.json").read_text())["llc"])
+    for folder in (recorded, run.parent / recorded.name):
+        if (folder / "policy.pt").is_file():
+            return folder
+    raise InputError(f"{run}: its behavior controller {recorded} (or {run.parent / recorded.name}) has no policy.pt")
+
+
+class TwoLevelController:
+    """A skill's high level (`skill`, a `policy.pt`) over its behavior
+    controller (`llc`, a run folder or its `policy.pt`), deterministic."""
+
+    def __init__(self, skill: Path, llc: Path):
+        self.skill, data = load_checkpoint(skill)
+        self.llc, _ = load_checkpoint(llc / "policy.pt" if llc.is_dir() else llc)
+        meta = data["meta"]
+        self.groups, self.latent_size, self.hold = meta["llc_groups"], meta["latent_size"], meta["hold_steps"]
+
+    def episode(self):
+        """`act(observation, info)` for one episode of one environment."""
+        steps = [0]
+        latents: dict[str, np.ndarray] = {}
+
+        def act(observation: np.ndarray, info: dict) -> np.ndarray:
+            with torch.no_grad():
+                if steps[0] % self.hold == 0:
+                    inputs = high_level_input(observation[None], np.asarray(info["interaction"])[None])
+                    raw = self.skill.mean(torch.as_tensor(inputs)).numpy()
+                    latents.update(to_latents(raw, self.groups, self.latent_size))
+                steps[0] += 1
+                robot = torch.as_tensor(observation[None, : self.llc.config.observation_size], dtype=torch.float32)
+                return self.llc(robot, {g: torch.as_tensor(z) for g, z in latents.items()}).numpy()[0]
+
+        return act
+
+
+def with_target(clip: MotionClip, target: np.ndarray) -> MotionClip:
+    """`clip` with a constant `target_marker` track at `target` (the task's goal position)."""
+    track = np.zeros((clip.num_frames, 1, 7))
+    track[:, 0, :3], track[:, 0, 3] = target, 1.0
+    poses = track if clip.object_poses is None else np.concatenate([clip.object_poses, track], axis=1)
+    return dataclasses.replace(clip, object_names=[*clip.object_names, TARGET_TRACK], object_poses=poses)
+
+
+def retarget_episode(udh_clip: MotionClip, robot: str, hands: str = "none") -> MotionClip:
+    """A recorded UDH episode on `robot`, its object and target tracks scaled to it."""
+    return to_robot(udh_clip, robot, hands).clip
+
+
+def make_references(
+    skill_run: str | Path,
+    robot: str,
+    hands: str,
+    seeds: Sequence[int],
+    folder: Path,
+    prefix: str = "reference",
+    llc: str | Path | None = None,
+) -> tuple[list[Path], float]:
+    """Record the skill on `seeds`, retarget each episode to `robot`, and
+    save both clips in `folder` (`udh_<prefix>_<seed>.npz`,
+    `<prefix>_<seed>.npz`); the robot clips' paths and the seconds it took."""
+    start = time.perf_counter()
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for seed, clip in zip(seeds, record_skill_episodes(skill_run, seeds, llc), strict=True):
+        clip.save(folder / f"udh_{prefix}_{seed}.npz")
+        path = folder / f"{prefix}_{seed}.npz"
+        retarget_episode(clip, robot, hands).save(path)
+        paths.append(path)
+    return paths, time.perf_counter() - start
+
+
+def skill_summary(skill_run: str | Path) -> dict:
+    """The UDH skill run's settings and wall-clock (for the transfer's accounting)."""
+    run = Path(skill_run)
+    report = run / "report.json"
+    settings = json.loads((run / "run.json").read_text())
+    seconds = json.loads(report.read_text()).get("wall_clock_seconds") if report.is_file() else None
+    return {"run": str(run.resolve()), "task": settings["task"], "algo": settings["algo"], "seconds": seconds}

@@ -1,13 +1,15 @@
 """The behavior-primitive trainer: PPO against per-part-group style
 discriminators and latent encoders (DAIL), with AMP, ASE and PMP as
-configurations of the same code (`config.preset`).
+configurations of the same code (`config.preset`); with a task reward, the
+one-level skill methods (AMP, PMP) too.
 
-One iteration:
+One iteration (`base_agent.BaseAgent`):
 
 1. `collect`: `ppo.horizon` control steps of every environment of the
    vector environment with the Gaussian policy, each part group's latent
-   resampled on its own timer; the AMP window of every group after every
-   step is kept (an ended episode's last window where it ended).
+   resampled on its own timer; the AMP window of every step is kept (an
+   ended episode's last window where it ended); an episode whose style
+   reward stays low is ended (`environment.style_termination`).
 2. `rewards`: per group, the style reward of the window (`style.style_reward`)
    and, with latents, the encoder's reward; each combined over the groups
    (`style.combine_rewards`: a product for DAIL) and weighted.
@@ -24,22 +26,19 @@ run needs.
 
 from __future__ import annotations
 
-import math
-import time
-
 import numpy as np
 import torch
 from torch import nn
 
-from hotu_drake.learning.buffers import EpisodeLog, ReplayBuffer, Rollout, to_arrays, to_tensors
+from hotu_drake.learning.base_agent import BaseAgent
+from hotu_drake.learning.buffers import ReplayBuffer, to_arrays, to_tensors
 from hotu_drake.learning.config import TrainConfig
 from hotu_drake.learning.demonstrations import Demonstrations
 from hotu_drake.learning.latents import LatentSchedule, sample_sphere
-from hotu_drake.learning.logger import count_iteration
-from hotu_drake.learning.models import ActorCritic, StyleNetwork
+from hotu_drake.learning.networks import ActorCritic, PolicyConfig, StyleNetwork
 from hotu_drake.learning.parts import PartGroup, resolve_groups
-from hotu_drake.learning.policy import PolicyConfig
-from hotu_drake.learning.ppo import PPO, PPOBatch, gae, make_batch
+from hotu_drake.learning.ppo import PPO, PPOBatch
+from hotu_drake.learning.rollout import Decision, Rollout, Step
 from hotu_drake.learning.style import (
     combine_rewards,
     discriminator_loss,
@@ -49,10 +48,8 @@ from hotu_drake.learning.style import (
     style_reward,
 )
 
-HALF_LOG_2PI = 0.5 * math.log(2.0 * math.pi)
 
-
-class Agent:
+class Agent(BaseAgent):
     """Trains a policy on `envs` (a gymnasium vector environment whose
     `info["amp"]` is laid out as `demonstrations.layout`)."""
 
@@ -64,12 +61,9 @@ class Agent:
         action_offset: np.ndarray | None = None,
         seed: int = 0,
     ):
-        self.config = config.validate()
-        torch.manual_seed(seed)
-        self.envs, self.demos = envs, demonstrations
-        self.num_envs = envs.num_envs
-        self.rng = np.random.default_rng(seed)
-        self.generator = torch.Generator().manual_seed(seed)
+        super().__init__(config, envs, seed)
+        config = self.config
+        self.demos = demonstrations
         style = config.style
         self.groups: list[PartGroup] = resolve_groups(demonstrations.layout, style.grouping, style.groups or None)
         if style.combine == "single" and len(self.groups) != 1:
@@ -108,8 +102,7 @@ class Agent:
         self.latents = LatentSchedule(
             list(latent_sizes), latent.size, self.num_envs, latent.resample_min, latent.resample_max, self.rng
         )
-        self.counters = {"iteration": 0, "samples": 0, "episodes": 0, "falls": 0, "seconds": 0.0, "warm_started": False}
-        self.episodes = EpisodeLog(self.num_envs)
+        self.counters["warm_started"] = False
         self._reset_envs()
 
     def _action_std(self, action_size: int) -> list[float]:
@@ -120,46 +113,38 @@ class Agent:
                 std[joint] = value
         return std
 
-    # -- environments ------------------------------------------------------------
-
-    def _reset_envs(self) -> None:
-        """Start every environment afresh (also after a resume)."""
-        seed = int(self.rng.integers(2**31))
-        self._observations, info = self.envs.reset(seed=seed)
+    def _reset_envs(self) -> dict:
         self._low_style = np.zeros(self.num_envs, dtype=np.int64)
-        self.episodes.restart()
+        return super()._reset_envs()
 
     def group_windows(self, amp: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """Each group's windows from an `info["amp"]` batch (N, K, d_key)."""
+        """Each group's windows from AMP windows (..., K, d_key) per key (`info["amp"]`)."""
         return {g.name: g.gather(amp).astype(np.float32) for g in self.groups}
 
-    # -- policy ------------------------------------------------------------------
+    # -- the rollout loop's hooks ----------------------------------------------------
 
-    def _latent_tensors(self, latents: dict[str, np.ndarray]) -> dict[str, torch.Tensor]:
-        return {g: torch.as_tensor(z) for g, z in latents.items()}
+    def decide(self, observations: np.ndarray) -> Decision:
+        """A sampled action for every environment, with its part latents."""
+        latents = self.latents.current()
+        action, log_prob = self.act(observations, latents)
+        return Decision(action, log_prob, latents)
 
-    def act(self, observations: np.ndarray, latents: dict[str, np.ndarray], deterministic: bool = False):
-        """Actions (and their log-probabilities) for a batch."""
-        with torch.inference_mode():
-            obs = torch.as_tensor(observations, dtype=torch.float32)
-            mean = self.model.policy.mean(obs, self._latent_tensors(latents))
-            if deterministic:
-                return mean.clamp(-1.0, 1.0).numpy(), None
-            log_std = self.model.log_std
-            noise = torch.randn(mean.shape, generator=self.generator)
-            action = mean + log_std.exp() * noise
-            # The Gaussian's log-density, written out (torch.distributions costs more than the policy here).
-            log_prob = -(0.5 * noise.square() + log_std + HALF_LOG_2PI).sum(-1)
-        return action.numpy(), log_prob.numpy()
-
-    def values(self, observations: np.ndarray, latents: dict[str, np.ndarray]) -> np.ndarray:
-        """The critic's values in reward units, for (..., obs) observations."""
-        with torch.no_grad():
-            obs = torch.as_tensor(observations, dtype=torch.float32)
-            flat = obs.reshape(-1, obs.shape[-1])
-            lat = {g: torch.as_tensor(z).reshape(flat.shape[0], -1) for g, z in latents.items()}
-            value = self.model.value_normalizer.denormalize(self.model.value(flat, lat)[:, None])[:, 0]
-        return value.numpy().reshape(obs.shape[:-1])
+    def observe(self, step: Step) -> np.ndarray | None:
+        """Bookkeeping and the latents' timers; ends the episodes whose style
+        reward stayed below `environment.style_termination` for
+        `environment.style_patience` steps."""
+        env_config = self.config.environment
+        cut = None
+        if env_config.style_termination > 0:
+            low = self.combine(self.group_style_rewards(self.group_windows(step.amp))) < env_config.style_termination
+            self._low_style = np.where(low & ~step.ended, self._low_style + 1, 0)
+            cut = self._low_style >= env_config.style_patience
+            self._low_style[cut] = 0
+        terminated = step.terminated if cut is None else step.terminated | cut
+        ended = step.ended if cut is None else step.ended | cut
+        self._bookkeeping(ended, terminated, step.info)
+        self.latents.step(ended)
+        return cut
 
     # -- rewards -----------------------------------------------------------------
 
@@ -192,14 +177,15 @@ class Agent:
 
     def rewards(self, rollout: Rollout) -> dict[str, np.ndarray]:
         """`total` (T, N) and its pieces: `style`, `encoder`, and per group."""
-        style = self.group_style_rewards(rollout.windows)
+        windows = self.group_windows(rollout.amp)
+        style = self.group_style_rewards(windows)
         out = {"style": self.combine(style), **{f"style/{g}": r for g, r in style.items()}}
         total = self.config.style.weight * out["style"]
-        if self.config.task_weight > 0 and rollout.task is not None:
-            out["task"] = rollout.task
-            total = total + self.config.task_weight * rollout.task
+        if self.config.task_weight > 0:
+            out["task"] = rollout.rewards
+            total = total + self.config.task_weight * rollout.rewards
         if rollout.latents:
-            encoder = self.group_encoder_rewards(rollout.windows, rollout.latents)
+            encoder = self.group_encoder_rewards(windows, rollout.latents)
             out["encoder"] = self.combine(encoder)
             out |= {f"encoder/{g}": r for g, r in encoder.items()}
             total = total + self.config.latent.encoder_weight * out["encoder"]
@@ -208,103 +194,12 @@ class Agent:
 
     # -- one iteration -------------------------------------------------------------
 
-    def collect(self) -> Rollout:
-        """`ppo.horizon` steps of every environment."""
-        T, N = self.config.ppo.horizon, self.num_envs
-        env_config = self.config.environment
-        obs_size = self._observations.shape[1]
-        observations = np.zeros((T, N, obs_size), np.float32)
-        next_observations = np.zeros((T, N, obs_size), np.float32)
-        actions = np.zeros((T, N, self.envs.single_action_space.shape[0]), np.float32)
-        log_probs = np.zeros((T, N), np.float32)
-        terminated = np.zeros((T, N), bool)
-        ended = np.zeros((T, N), bool)
-        style_terminated = np.zeros((T, N), bool)
-        task = np.zeros((T, N), np.float32)
-        latents = {g: np.zeros((T, N, self.latents.size), np.float32) for g in self.latents.groups}
-        windows = {g.name: np.zeros((T, N, self.demos.history, g.frame_size), np.float32) for g in self.groups}
-        for t in range(T):
-            current = self.latents.current()
-            observations[t] = self._observations
-            for g, z in current.items():
-                latents[g][t] = z
-            action, log_prob = self.act(self._observations, current)
-            actions[t], log_probs[t] = action, log_prob
-            observation, reward, term, trunc, info = self.envs.step(action)
-            task[t] = reward
-            done = term | trunc
-            after = observation.copy()
-            amp = {key: np.array(v) for key, v in info["amp"].items() if not key.startswith("_")}
-            for i in np.flatnonzero(done):  # same-step reset: the ended episode's last frames
-                after[i] = info["final_obs"][i]
-                for key in amp:
-                    amp[key][i] = info["final_info"]["amp"][key][i]
-            step_windows = self.group_windows(amp)
-            for g, w in step_windows.items():
-                windows[g][t] = w
-            if env_config.style_termination > 0:
-                low = self.combine(self.group_style_rewards(step_windows)) < env_config.style_termination
-                self._low_style = np.where(low & ~done, self._low_style + 1, 0)
-                cut = self._low_style >= env_config.style_patience
-                if cut.any():
-                    observation = self._reset_some(cut, observation)
-                    style_terminated[t] = cut
-                    term = term | cut
-                    done = done | cut
-                    self._low_style[cut] = 0
-            next_observations[t] = after
-            terminated[t], ended[t] = term, done
-            self._bookkeeping(term, done, info)
-            self._observations = observation
-            self.latents.step(done)
-        values = self.values(observations, latents)
-        next_values = self.values(next_observations, latents)
-        return Rollout(
-            observations,
-            latents,
-            actions,
-            log_probs,
-            values,
-            next_values,
-            terminated,
-            ended,
-            windows,
-            style_terminated,
-            task,
-        )
-
-    def _reset_some(self, mask: np.ndarray, observation: np.ndarray) -> np.ndarray:
-        """Reset the environments in `mask` (the style-reward rule ended their episodes)."""
-        fresh, _ = self.envs.reset(options={"reset_mask": mask})
-        observation = observation.copy()
-        observation[mask] = fresh[mask]
-        return observation
-
-    def _bookkeeping(self, terminated: np.ndarray, ended: np.ndarray, info: dict) -> None:
-        self.episodes.step(ended, info)
-        self.counters["episodes"] += int(ended.sum())
-        self.counters["falls"] += int(terminated.sum())
-
     def update(self, rollout: Rollout, rewards: dict[str, np.ndarray]) -> dict[str, float]:
-        """PPO on the rollout, then the style networks, then the normalisers."""
-        c = self.config
-        advantages = gae(
-            rewards["total"],
-            rollout.values,
-            rollout.next_values,
-            rollout.terminated,
-            rollout.ended,
-            c.ppo.gamma,
-            c.ppo.lam,
-        )
-        r = rollout
-        batch = make_batch(
-            self.model, r.observations, r.latents, r.actions, r.log_probs, r.values, advantages, c.ppo.normalize_value
-        )
-        stats = self.ppo.update(batch, self.generator, self._extra_losses)
-        stats |= self._update_style(rollout)
-        self.model.policy.normalizer.update(batch.observations)
-        return stats
+        """PPO on the rollout (with the diversity and cloning terms), then the style networks, then the normalisers."""
+        return self.ppo_update(rollout, rewards["total"], self._extra_losses)
+
+    def _after_ppo(self, rollout: Rollout) -> dict[str, float]:
+        return self._update_style(rollout)
 
     def _extra_losses(self, mb: PPOBatch, mean: torch.Tensor) -> dict[str, torch.Tensor]:
         """The actor's losses besides PPO's: ASE's diversity, and the cloning term."""
@@ -363,7 +258,8 @@ class Agent:
         s = self.config.style
         batch = s.batch_size
         stats: dict[str, float] = {}
-        current = {g.name: rollout.windows[g.name].reshape(-1, *rollout.windows[g.name].shape[2:]) for g in self.groups}
+        windows = self.group_windows(rollout.amp)
+        current = {g.name: windows[g.name].reshape(-1, *windows[g.name].shape[2:]) for g in self.groups}
         latents = {g: z.reshape(-1, z.shape[-1]) for g, z in rollout.latents.items()}
         for g in self.groups:  # the input statistics: this iteration's policy windows and as many demonstrations
             demo = self._demo_windows(g, len(current[g.name]))
@@ -402,27 +298,9 @@ class Agent:
             self.replay[g.name].keep(current[g.name], s.replay_keep, self.rng)
         return stats
 
-    def iteration(self) -> dict[str, float]:
-        """Collect, reward, update; the iteration's statistics."""
-        start = time.perf_counter()
-        self.model.eval()
-        # One thread while the workers step (the batch is a handful of rows and
-        # the cores are theirs); all of them for the update, while they wait.
-        torch.set_num_threads(1)
-        rollout = self.collect()
-        collected = time.perf_counter()
-        torch.set_num_threads(self.config.torch_threads)
-        rewards = self.rewards(rollout)
-        self.model.train()
-        stats = self.update(rollout, rewards)
-        end = time.perf_counter()
-        stats |= count_iteration(self.counters, rollout.num_samples, start, collected, end)
-        stats |= {
-            "reward": float(rewards["total"].mean()),
-            "falls": int(rollout.terminated.sum() - rollout.style_terminated.sum()),
-            "style_terminations": int(rollout.style_terminated.sum()),
-            **self.episodes.stats(),
-        }
+    def iteration_stats(self, rollout: Rollout, rewards: dict[str, np.ndarray]) -> dict[str, float]:
+        cut = int(rollout.cut.sum())
+        stats = {"falls": int(rollout.terminated.sum()) - cut, "style_terminations": cut, **self.episodes.stats()}
         stats |= {key: float(value.mean()) for key, value in rewards.items() if key != "total"}
         if "task" in rewards:  # a skill's one-level run: eq. (3)'s terms under the names the two-level runs use
             stats |= {"reward/task": stats["task"], "reward/style": stats["style"]}
@@ -469,37 +347,37 @@ class Agent:
 
     # -- state -----------------------------------------------------------------------
 
-    def state_dict(self) -> dict:
+    def checkpoint_meta(self) -> dict:
+        """What its checkpoints record of the run besides the command's settings."""
         return {
-            "model": self.model.state_dict(),
+            "groups": [g.to_dict() for g in self.groups],
+            "layout": self.demos.layout.to_dict(),
+            "samples": self.counters["samples"],
+            "iteration": self.counters["iteration"],
+            "config": self.config.to_dict(),
+        }
+
+    def policy_info(self) -> dict:
+        """What a deployed policy needs besides its weights: its latents' prior and its control rate."""
+        latent = self.config.latent
+        prior = {"size": latent.size, "resample_min": latent.resample_min, "resample_max": latent.resample_max}
+        return {"latent": prior, "control_rate": self.demos.control_rate}
+
+    def state_dict(self) -> dict:
+        return super().state_dict() | {
             "style": self.style.state_dict(),
-            "actor_optimizer": self.ppo.actor_optimizer.state_dict(),
-            "critic_optimizer": self.ppo.critic_optimizer.state_dict(),
             "style_optimizer": self.style_optimizer.state_dict(),
             "replay": {g: to_tensors(b.state_dict()) for g, b in self.replay.items()},
             "latents": to_tensors(self.latents.state_dict()),
-            "numpy_rng": self.rng.bit_generator.state,
-            "torch_generator": self.generator.get_state(),
-            "torch_rng": torch.get_rng_state(),
-            "counters": dict(self.counters),
-            **self.episodes.state_dict(),
         }
 
     def load_state_dict(self, state: dict) -> None:
-        self.model.load_state_dict(state["model"])
         self.style.load_state_dict(state["style"])
-        self.ppo.actor_optimizer.load_state_dict(state["actor_optimizer"])
-        self.ppo.critic_optimizer.load_state_dict(state["critic_optimizer"])
         self.style_optimizer.load_state_dict(state["style_optimizer"])
         for g, b in self.replay.items():
             b.load_state_dict(to_arrays(state["replay"][g]))
         self.latents.load_state_dict(to_arrays(state["latents"]))
-        self.rng.bit_generator.state = state["numpy_rng"]
-        self.generator.set_state(state["torch_generator"])
-        torch.set_rng_state(state["torch_rng"])
-        self.counters = dict(state["counters"])
-        self.episodes.load_state_dict(state)
-        self._reset_envs()
+        super().load_state_dict(state)
 
 
 def _jitter_scale(obs: torch.Tensor) -> torch.Tensor:

@@ -24,7 +24,7 @@ import torch
 
 from hotu_drake.errors import InputError
 from hotu_drake.io import atomic_output
-from hotu_drake.learning.policy import PolicyConfig, PolicyNetwork
+from hotu_drake.learning.networks import PolicyConfig, PolicyNetwork
 
 FORMAT_VERSION = 2
 KINDS = ("training", "policy")

@@ -1,7 +1,7 @@
 """Demonstrations as arrays: what the discriminators, the warm start and the
 evaluation know of the reference clips.
 
-The Drake side (`hotu_drake.envs.demonstrations`) plays each reference
+The Drake side (`hotu_drake.envs.runs`) plays each reference
 clip through the environment's observation system once, at the control
 rate, and hands the learner, per motion:
 

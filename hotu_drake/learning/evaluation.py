@@ -228,3 +228,82 @@ def _goal(info: dict, index: int) -> dict:
     if not isinstance(goal, dict):
         return {}
     return {k: np.asarray(v[index]).tolist() for k, v in goal.items() if not k.startswith("_")}
+
+
+def behavior_report(agent, envs, standing: np.ndarray, episodes: int, seed: int) -> dict:
+    """A behavior run's evaluation: `evaluate` of the agent's deterministic
+    policy and of the robot standing (`standing`, its action) on the same
+    seeded episodes, and how much closer to the references the policy is
+    (per part, degrees; positive: closer than standing)."""
+    demos = agent.demos
+    columns = np.asarray(demos.meta["joint_columns"])
+
+    def style(amp: dict) -> np.ndarray:
+        return agent.combine(agent.group_style_rewards(agent.group_windows(amp)))
+
+    latent = agent.config.latent
+    common = {"episodes": episodes, "seed": seed}
+    learned = evaluate(
+        envs,
+        lambda obs, z: agent.act(obs, z, deterministic=True)[0],
+        demos,
+        columns,
+        style,
+        latent_groups=list(agent.model.policy.config.latent_sizes),
+        latent_size=latent.size,
+        resample=(latent.resample_min, latent.resample_max),
+        **common,
+    )
+    baseline = evaluate(envs, standing_policy(standing), demos, columns, style, **common)
+    return {
+        "evaluation": {"policy": learned, "standing": baseline, "episodes": episodes, "seed": seed},
+        "closer_than_standing_deg": {
+            part: round(baseline["joint_distance_deg"][part] - learned["joint_distance_deg"][part], 2)
+            for part in learned["joint_distance_deg"]
+        },
+        "better_coverage_than_standing_deg": {
+            part: round(baseline["coverage_deg"][part] - learned["coverage_deg"][part], 2)
+            for part in learned["coverage_deg"]
+        },
+    }
+
+
+def behavior_summary(report: dict) -> dict:
+    """A behavior report's headline figures, next to standing's."""
+    policy, standing = report["evaluation"]["policy"], report["evaluation"]["standing"]
+    return {
+        "fall_rate": policy["fall_rate"],
+        "normalized_return": round(policy["normalized_return"], 3),
+        "standing_normalized_return": round(standing["normalized_return"], 3),
+        "joint_distance_deg": round(policy["joint_distance_deg"]["all"], 2),
+        "standing_joint_distance_deg": round(standing["joint_distance_deg"]["all"], 2),
+        "coverage_deg": round(policy["coverage_deg"]["all"], 2),
+        "standing_coverage_deg": round(standing["coverage_deg"]["all"], 2),
+    }
+
+
+def task_report(
+    envs, controller: TaskController, standing: np.ndarray, episodes: int, seed: int, task_reward: str | None = None
+) -> tuple[dict, dict]:
+    """A skill run's evaluation: `evaluate_task` of its controller and of the
+    robot standing on the same seeded task instances; the evaluation (with
+    its best episode) and that best episode's details."""
+    result = evaluate_task(envs, controller, episodes, seed, task_reward=task_reward)
+    standing_result = evaluate_task(envs, standing_policy(standing), episodes, seed, task_reward=task_reward)
+    standing_result.pop("episodes_detail")
+    detail = result.pop("episodes_detail")
+    best = max(range(len(detail)), key=lambda i: (detail[i]["success"], detail[i]["return"]))
+    return {**result, "seed": seed, "best_episode": detail[best], "standing": standing_result}, detail[best]
+
+
+def task_summary(report: dict) -> dict:
+    """A skill report's headline figures, next to standing's."""
+    e = report["evaluation"]
+    return {
+        "success_rate": e["success_rate"],
+        "normalized_return": round(e["normalized_return"], 3),
+        "fall_rate": e["fall_rate"],
+        "mean_episode_steps": round(e["mean_episode_steps"], 1),
+        "standing_success_rate": e["standing"]["success_rate"],
+        "standing_normalized_return": round(e["standing"]["normalized_return"], 3),
+    }

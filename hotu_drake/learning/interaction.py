@@ -15,7 +15,7 @@ import numpy as np
 import torch
 
 from hotu_drake.learning.buffers import ReplayBuffer, to_arrays, to_tensors
-from hotu_drake.learning.models import StyleNetwork
+from hotu_drake.learning.networks import StyleNetwork
 from hotu_drake.learning.skill_config import InteractionConfig
 from hotu_drake.learning.style import discriminator_loss, style_reward
 

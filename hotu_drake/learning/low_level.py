@@ -19,9 +19,8 @@ from torch import nn
 
 from hotu_drake.learning.checkpoint import CheckpointError, load_checkpoint, read_checkpoint
 from hotu_drake.learning.config import TrainConfig, config_from_dict
-from hotu_drake.learning.models import StyleNetwork
+from hotu_drake.learning.networks import PolicyNetwork, StyleNetwork
 from hotu_drake.learning.parts import PartGroup
-from hotu_drake.learning.policy import PolicyNetwork
 from hotu_drake.learning.style import combine_rewards, style_reward
 
 

@@ -9,7 +9,7 @@ import torch
 from torch import nn
 
 from hotu_drake.learning.config import PPOConfig
-from hotu_drake.learning.models import ActorCritic
+from hotu_drake.learning.networks import ActorCritic
 
 
 def gae(

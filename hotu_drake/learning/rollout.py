@@ -1,4 +1,5 @@
-"""Parallel rollouts: environments in worker processes, batches for a trainer.
+"""Parallel rollouts: environments in worker processes, and the one loop that
+steps them for every learner.
 
 Gymnasium only (no pydrake): trainers import this, and it reaches the
 robots through registered environment ids.
@@ -14,14 +15,21 @@ robots through registered environment ids.
   (`address` names an existing cluster).
   Episodes reset in the same step they end; the last observation and info
   of an ended episode are in `info["final_obs"]` and `info["final_info"]`.
-- `RolloutCollector` steps a vector environment with a policy (any
-  function from a batch of observations to a batch of actions) and returns
-  a `RolloutBatch` of arrays shaped (steps, N, ...).
+- `RolloutCollector` steps a vector environment with a policy and returns
+  a `Rollout` of arrays shaped (steps, N, ...). The policy is any function
+  from a batch of observations to a batch of actions, or a learner that
+  `decide`s (actions, their log-probabilities, the latents they were taken
+  with) and `observe`s each step (its own bookkeeping, and the episodes it
+  ends early). Primitives, one-level skills, two-level skills (over
+  `high_level.HighLevelEnv`) and fine-tunes all collect through it.
 """
+
+from __future__ import annotations
 
 import importlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -67,17 +75,53 @@ def make_vector_env(
 
 
 @dataclass
-class RolloutBatch:
-    """Arrays of one collection, shaped (steps, num_envs, ...)."""
+class Decision:
+    """A policy's choice for a batch of observations."""
 
-    observations: np.ndarray
-    actions: np.ndarray
+    action: np.ndarray
+    log_prob: np.ndarray | None = None  # of the action, for PPO
+    latents: dict[str, np.ndarray] = field(default_factory=dict)  # group -> (N, z) it was taken with
+
+
+@dataclass
+class Step:
+    """One step of every environment of a vector environment, an ended
+    episode's last frames in place of the next episode's first."""
+
+    observations: np.ndarray  # what the next decision sees (a new episode's first where one ended)
+    after: np.ndarray  # the state the step reached (an ended episode's last)
     rewards: np.ndarray
     terminated: np.ndarray
     truncated: np.ndarray
-    next_observations: np.ndarray  # the episode's last observation where it ended
-    amp: dict[str, np.ndarray]  # part -> (steps, num_envs, K, d_part)
-    interaction: np.ndarray | None = None  # s_I, tasks only
+    amp: dict[str, np.ndarray]  # info["amp"] after the step, key -> (N, K, d)
+    interaction: np.ndarray | None  # info["interaction"] (s_I) after the step
+    info: dict
+
+    @property
+    def ended(self) -> np.ndarray:
+        return self.terminated | self.truncated
+
+
+@dataclass
+class Rollout:
+    """One collection from a vector environment, arrays shaped (T, N, ...)."""
+
+    observations: np.ndarray  # what each action was chosen on
+    actions: np.ndarray
+    rewards: np.ndarray  # the environment's reward (a task's r_g)
+    terminated: np.ndarray  # a fall, or an episode the learner ended (`cut`)
+    truncated: np.ndarray
+    next_observations: np.ndarray  # the state after each step (an ended episode's last)
+    amp: dict[str, np.ndarray]  # key -> (T, N, K, d): the AMP window after each step
+    interaction: np.ndarray | None = None  # (T, N, d_I): s_I after each step, tasks only
+    log_probs: np.ndarray | None = None
+    latents: dict[str, np.ndarray] = field(default_factory=dict)  # group -> (T, N, z)
+    cut: np.ndarray | None = None  # (T, N): episodes the learner ended early
+    info: dict[str, Any] = field(default_factory=dict)  # the recorded `info` keys, stacked
+
+    @property
+    def ended(self) -> np.ndarray:
+        return self.terminated | self.truncated
 
     @property
     def num_steps(self) -> int:
@@ -85,46 +129,90 @@ class RolloutBatch:
 
 
 class RolloutCollector:
-    """Collects fixed-length batches from a vector environment."""
+    """Collects fixed-length rollouts from a vector environment; `record`
+    names `info` keys (arrays, or dicts of arrays) to keep in `Rollout.info`."""
 
-    def __init__(self, envs: gym.vector.VectorEnv, seed: int | None = None):
-        self.envs = envs
-        self._observations, info = envs.reset(seed=seed)
-        self._parts = [part for part in info["amp"] if not part.startswith("_")]  # not gymnasium's masks
+    def __init__(self, envs: gym.vector.VectorEnv, seed: int | None = None, record: tuple[str, ...] = ()):
+        self.envs, self.record = envs, tuple(record)
+        self.reset(seed)
 
-    def collect(self, policy: Callable[[np.ndarray], np.ndarray], steps: int) -> RolloutBatch:
-        obs, actions, rewards, terminated, truncated, next_obs, interaction = [], [], [], [], [], [], []
-        amp: dict[str, list] = {part: [] for part in self._parts}
+    def reset(self, seed: int | None = None) -> dict:
+        """Start every environment afresh; the reset's info."""
+        self.observations, self.info = self.envs.reset(seed=seed)
+        return self.info
+
+    def step(self, action: np.ndarray) -> Step:
+        """One step of every environment, the ended episodes' last frames in `after`, `amp` and `interaction`."""
+        observation, reward, terminated, truncated, info = self.envs.step(action)
+        ended = terminated | truncated
+        after = observation.copy()
+        amp = {key: np.array(v) for key, v in info.get("amp", {}).items() if not key.startswith("_")}
+        interaction = np.array(info["interaction"], dtype=np.float32) if "interaction" in info else None
+        for i in np.flatnonzero(ended):  # same-step reset: the ended episode's last frames are in final_*
+            after[i] = info["final_obs"][i]
+            for key in amp:
+                amp[key][i] = info["final_info"]["amp"][key][i]
+            if interaction is not None:
+                interaction[i] = info["final_info"]["interaction"][i]
+        return Step(observation, after, np.asarray(reward), terminated, truncated, amp, interaction, info)
+
+    def end_episodes(self, mask: np.ndarray, step: Step) -> None:
+        """Reset the environments in `mask` (a learner ended their episodes):
+        the step ends as a termination there, and the next decision sees the
+        fresh episodes."""
+        fresh, _ = self.envs.reset(options={"reset_mask": mask})
+        step.observations = step.observations.copy()
+        step.observations[mask] = fresh[mask]
+        step.terminated = step.terminated | mask
+
+    def collect(self, policy, steps: int) -> Rollout:
+        """`steps` steps of every environment with `policy`: a function of
+        observations to actions, or an object with `decide(observations) ->
+        Decision` and, optionally, `observe(step) -> mask | None` (called
+        after each step; the environments in the mask it returns are ended
+        early and reset)."""
+        decide: Callable[[np.ndarray], Decision] = getattr(policy, "decide", None) or _plain(policy)
+        observe = getattr(policy, "observe", None)
+        rows: dict[str, list] = {}
         for _ in range(steps):
-            action = np.asarray(policy(self._observations), dtype=np.float32)
-            observation, reward, term, trunc, info = self.envs.step(action)
-            ended = term | trunc
-            after = observation.copy()
-            if ended.any():  # same-step reset: the ended episodes' last frames are in final_*
-                for i in np.flatnonzero(ended):
-                    after[i] = info["final_obs"][i]
-                    for part in self._parts:
-                        info["amp"][part][i] = info["final_info"]["amp"][part][i]
-                    if "interaction" in info:
-                        info["interaction"][i] = info["final_info"]["interaction"][i]
-            obs.append(self._observations)
-            actions.append(action)
-            rewards.append(reward)
-            terminated.append(term)
-            truncated.append(trunc)
-            next_obs.append(after)
-            for part in self._parts:
-                amp[part].append(np.array(info["amp"][part]))
-            if "interaction" in info:
-                interaction.append(np.array(info["interaction"]))
-            self._observations = observation
-        return RolloutBatch(
-            observations=np.array(obs),
-            actions=np.array(actions),
-            rewards=np.array(rewards, dtype=np.float32),
-            terminated=np.array(terminated),
-            truncated=np.array(truncated),
-            next_observations=np.array(next_obs),
-            amp={part: np.array(frames) for part, frames in amp.items()},
-            interaction=np.array(interaction) if interaction else None,
-        )
+            decision = decide(self.observations)
+            step = self.step(decision.action)
+            cut = observe(step) if observe is not None else None
+            if cut is not None and cut.any():
+                self.end_episodes(cut, step)
+            row = {
+                "observations": self.observations,
+                "actions": decision.action,
+                "rewards": step.rewards,
+                "terminated": step.terminated,
+                "truncated": step.truncated,
+                "next_observations": step.after,
+                "amp": step.amp,
+                "interaction": step.interaction,
+                "log_probs": decision.log_prob,
+                "latents": decision.latents,
+                "cut": cut if cut is not None else np.zeros(len(step.rewards), bool),
+                "info": {key: step.info[key] for key in self.record},
+            }
+            for key, value in row.items():
+                rows.setdefault(key, []).append(value)
+            self.observations, self.info = step.observations, step.info
+        stacked = {key: _stack(values) for key, values in rows.items()}
+        stacked["rewards"] = stacked["rewards"].astype(np.float32)
+        if observe is None:
+            stacked["cut"] = None
+        return Rollout(**stacked)
+
+
+def _plain(policy: Callable[[np.ndarray], np.ndarray]) -> Callable[[np.ndarray], Decision]:
+    return lambda observations: Decision(np.asarray(policy(observations), dtype=np.float32))
+
+
+def _stack(values: list):
+    """Per-step values stacked along a new first axis: arrays, dicts of them (recursively), or None."""
+    first = values[0]
+    if first is None:
+        return None
+    if isinstance(first, dict):
+        return {key: _stack([v[key] for v in values]) for key in first}
+    return np.stack([np.asarray(v) for v in values])

@@ -28,7 +28,7 @@ from __future__ import annotations
 import torch
 from torch.nn import functional as F
 
-from hotu_drake.learning.models import StyleNetwork
+from hotu_drake.learning.networks import StyleNetwork
 
 
 def style_reward(logit: torch.Tensor, form: str = "amp") -> torch.Tensor:

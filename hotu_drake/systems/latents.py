@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from pydrake.systems.framework import Context, DiagramBuilder, LeafSystem
 
-from hotu_drake.learning.latents import sample_sphere
+from hotu_drake.learning import sample_sphere
 
 
 class LatentSampler(LeafSystem):

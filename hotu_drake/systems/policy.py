@@ -1,6 +1,6 @@
 """PolicySystem: runs a policy network at the control rate.
 
-The network (`learning.policy.PolicyNetwork`, from a checkpoint that
+The network (`learning.networks.PolicyNetwork`, from a checkpoint that
 training writes) maps the observation and one latent per functional part
 to an action (normalised PD targets), updated every control period (30 Hz
 by default) and held in between (zero-order hold).
@@ -18,8 +18,7 @@ from pydrake.systems.primitives import ConstantVectorSource
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.actions import standing_action
 from hotu_drake.errors import InputError
-from hotu_drake.learning.checkpoint import CheckpointError, load_checkpoint
-from hotu_drake.learning.policy import PolicyConfig, PolicyNetwork
+from hotu_drake.learning import CheckpointError, PolicyConfig, PolicyNetwork, load_checkpoint
 from hotu_drake.systems.observation import observation_size
 
 CONTROL_RATE = 30.0  # Hz

@@ -18,9 +18,7 @@ from pydrake.systems.framework import BasicVector, Context, DiagramBuilder, Leaf
 
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.errors import InputError
-from hotu_drake.learning.checkpoint import CheckpointError, load_checkpoint
-from hotu_drake.learning.policy import PolicyNetwork
-from hotu_drake.learning.skill_agent import high_level_input, to_latents
+from hotu_drake.learning import CheckpointError, PolicyNetwork, high_level_input, load_checkpoint, to_latents
 from hotu_drake.systems.interaction_graph import GOAL_SIZE
 from hotu_drake.systems.observation import observation_size
 from hotu_drake.systems.policy import CONTROL_RATE, check_embodiment

@@ -8,7 +8,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
 from hotu_drake.learning.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
-from hotu_drake.learning.policy import PolicyConfig, PolicyNetwork
+from hotu_drake.learning.networks import PolicyConfig, PolicyNetwork
 from hotu_drake.systems.policy import AddPolicy, PolicySystem
 from tests.systems.ports import assert_inputs_wired, assert_port_contract
 

@@ -7,7 +7,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Adder, ConstantVectorSource, Sine
 
-from hotu_drake.learning.policy import PolicyConfig, PolicyNetwork
+from hotu_drake.learning.networks import PolicyConfig, PolicyNetwork
 from hotu_drake.systems.skill import AddSkillPolicy, SkillPolicySystem
 from tests.systems.ports import assert_inputs_wired, assert_port_contract
 

@@ -10,7 +10,7 @@ Section II-D of the method. The command
    `--references` seeded task instances (seeds 0, 1, ...) and on
    `--eval-references` held-out ones (seeds 1000, ...), records each
    episode and retargets it to `--robot`, objects and targets scaled to the
-   robot (`hotu_drake.transfer`; the clips go to the run's `references/`);
+   robot (`hotu_drake.envs.transfer`; the clips go to the run's `references/`);
 2. trains the fine-tuning layer (`learning.skill_config.finetune_preset`: a
    small MLP choosing the latents of the robot's frozen behavior controller
    `--llc` at every control step) with PPO on the transfer environment
@@ -32,11 +32,13 @@ import json
 import shutil
 from pathlib import Path
 
+from hotu_drake.commands.run_options import add_run_arguments, check_run_arguments, controller_robot
+from hotu_drake.commands.train_skill import resumed_skill_run, train_skill_run
 from hotu_drake.embodiment import EMBODIMENT_NAMES
+from hotu_drake.envs.transfer import make_references, skill_controller, skill_summary
 from hotu_drake.errors import InputError, check_number
-from hotu_drake.io import check_output_path
 from hotu_drake.learning.skill_config import TWO_LEVEL, finetune_preset, load_skill_config
-from hotu_drake.train import add_run_arguments, check_run_arguments
+from hotu_drake.learning.trainer import RunFolder
 
 EVALUATION_SEED = 1000  # the held-out references' first seed
 
@@ -53,13 +55,12 @@ def add_parser(sub) -> None:
 
 
 def finetune_command(args) -> int:
-    from hotu_drake import train_skill
-
+    folder = check_run_arguments(args)
     if args.resume:
-        settings, config = _resumed(args)
-        return train_skill.train_skill_run(settings, config, args)
-    settings, config = _new_run(args)
-    out = Path(args.out)
+        settings, config = resumed_skill_run(args, folder, "finetune", ("robot", "hands"))
+        return train_skill_run(settings, config, args, folder)
+    settings, config = _new_run(args, folder)
+    out = folder.path
     created = not out.exists()
     staging = out / "references.partial"
     try:
@@ -70,27 +71,15 @@ def finetune_command(args) -> int:
         if created:
             shutil.rmtree(out, ignore_errors=True)
         raise
-    folder = (out / "references").resolve()
+    references = (out / "references").resolve()
     for key in ("references", "eval_references"):
-        settings[key] = [str(folder / Path(p).name) for p in settings[key]]
+        settings[key] = [str(references / Path(p).name) for p in settings[key]]
     settings["motions"] = settings["references"]
-    return train_skill.train_skill_run(settings, config, args)
+    return train_skill_run(settings, config, args, folder)
 
 
-def _resumed(args):
-    from hotu_drake.train_skill import resumed_skill_run
-
-    check_run_arguments(args)
-    return resumed_skill_run(args, "finetune", ("robot", "hands"))
-
-
-def _new_run(args) -> tuple[dict, object]:
-    from hotu_drake.train_skill import controller_robot
-
-    out = check_run_arguments(args)
-    if (out / "checkpoint.pt").exists() or (out / "run.json").exists():
-        raise InputError(f"{out}: a run is already here (add --resume to continue it, or choose another --out)")
-    check_output_path(out, folder=True)
+def _new_run(args, folder: RunFolder) -> tuple[dict, object]:
+    folder.check_new()
     if not args.skill or not args.llc:
         raise InputError("finetune needs --skill (the UDH skill run) and --llc (the robot's behavior run)")
     for name in ("references", "eval_references"):
@@ -117,8 +106,6 @@ def _new_run(args) -> tuple[dict, object]:
 
 def _skill_settings(skill: Path) -> dict:
     """The UDH skill run's settings, checked: a two-level run with what recording needs."""
-    from hotu_drake.transfer import skill_controller
-
     try:
         settings = json.loads((skill / "run.json").read_text())
     except (OSError, ValueError) as error:
@@ -134,8 +121,6 @@ def _skill_settings(skill: Path) -> dict:
 
 def _record_references(settings: dict, folder: Path) -> dict:
     """The training and held-out references of the run, and what they took."""
-    from hotu_drake.transfer import make_references, skill_summary
-
     robot, hands, skill = settings["robot"], settings["hands"], settings["skill"]
     train = range(settings["reference_count"])
     held_out = range(EVALUATION_SEED, EVALUATION_SEED + settings["eval_reference_count"])

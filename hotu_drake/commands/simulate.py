@@ -1,0 +1,70 @@
+"""Run a scenario.
+
+    python -m hotu_drake.simulate SCENARIO [--name NAME] [--duration S] [--html OUT.html] [--json]
+
+SCENARIO is the name of a shipped scenario (`stand_h1`, see `--list`) or
+a scenario file (one scenario, or a catalogue with `--name`).
+
+Builds the scenario's diagram, simulates it (`diagrams.run_scenario`) and prints `realtime_factor`,
+`fell` (a body other than a foot touched the floor, or the pelvis dropped
+below half its standing height), `min_pelvis_height`, `max_torque_ratio`
+(largest |torque| over its effort limit) and `checksum` (of the final state:
+the same on one machine run after run; another machine's floating-point
+last bits may change it, so regression tests pin the state itself and
+compare it with a tolerance). A scenario with a
+reference motion also gets `tracking_rms` (rad, joint positions against the
+reference, sampled every 50 ms).
+"""
+
+import json
+import sys
+from pathlib import Path
+
+from hotu_drake.cli import ArgumentParser, positive_float, run_cli
+from hotu_drake.diagrams import run_scenario
+from hotu_drake.io import check_output_path, write_text_atomic
+from hotu_drake.scenario import load_scenario, shipped_scenarios
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = ArgumentParser(prog="python -m hotu_drake.simulate", description="Build and run a scenario file.")
+    parser.add_argument(
+        "scenario", nargs="?", help="the name of a shipped scenario (e.g. stand_h1) or a scenario YAML file"
+    )
+    parser.add_argument("--name", help="the scenario to run from a catalogue file (several named scenarios)")
+    parser.add_argument("--list", action="store_true", help="list the shipped scenarios and exit")
+    parser.add_argument("--duration", type=positive_float, help="simulated seconds (default: the scenario's)")
+    parser.add_argument("--html", help="write a Meshcat replay of the run")
+    parser.add_argument("--json", action="store_true", help="print the figures as JSON")
+    args = parser.parse_args(argv)
+    if args.list:
+        for name, path in shipped_scenarios().items():
+            print(f"{name:22s} {path.name}")
+        return 0
+    if not args.scenario:
+        parser.error("give a scenario (a shipped name or a file)")
+    if args.html:
+        check_output_path(args.html)
+    scenario = load_scenario(args.scenario, args.name)
+    if args.duration is not None:  # the scenario's own bounds, on the duration asked for
+        scenario.duration = args.duration
+        scenario.validate("--duration")
+    meshcat = None
+    if args.html:
+        from pydrake.geometry import StartMeshcat
+
+        meshcat = StartMeshcat()
+    figures = run_scenario(scenario, args.duration, meshcat)
+    figures["scenario"] = args.name or Path(args.scenario).stem
+    if args.html:
+        write_text_atomic(args.html, meshcat.StaticHtml())
+    if args.json:
+        print(json.dumps(figures, indent=2))
+    else:
+        for key, value in figures.items():
+            print(f"{key:18s} {value}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(run_cli(main))
