@@ -7,6 +7,7 @@ OptiTrack CSV, checkpoints, reports, Meshcat HTML, model files).
 
 from __future__ import annotations
 
+import contextlib
 import os
 import tempfile
 from collections.abc import Iterator
@@ -48,21 +49,57 @@ def atomic_output(path: str | Path, suffix: str = ".tmp") -> Iterator[Path]:
 
 def check_output_path(path: str | Path, folder: bool = False) -> Path:
     """Check, before any work, that `path` can be written (a file, or with
-    `folder` a folder to write into): not the wrong kind of thing, and the
-    nearest existing folder above it writable. `InputError` naming the path
-    otherwise."""
+    `folder` a folder to write into), so a run does not fail on its last
+    output after writing the others. `InputError` naming the path otherwise.
+
+    Refused: the wrong kind of thing (a folder for a file, a file for a
+    folder), a file or a broken link where a folder must be, and a nearest
+    existing folder that is not writable or marked read-only (no write
+    permission bit: refused for root too, who could write there). Then the
+    writing is tried, as `atomic_output` does it: the missing folders and a
+    temporary file are made and removed again, which finds what permission
+    bits do not show (a special file system such as /sys, no space left)."""
     path = Path(path)
     if path.exists() and path.is_dir() != folder:
         problem = "is a folder; give a file name" if path.is_dir() else "is a file; give a folder"
         raise InputError(problem, path)
-    existing = path if folder and path.exists() else path.parent
+    target = path if folder else path.parent
+    existing = target
     while not existing.exists() and existing != existing.parent:
+        if existing.is_symlink():
+            raise InputError(f"cannot write here ({existing} is a broken link)", path)
         existing = existing.parent
     if not existing.is_dir():
         raise InputError(f"cannot write here ({existing} is not a folder)", path)
     if not os.access(existing, os.W_OK | os.X_OK):
         raise InputError(f"cannot write here ({existing} is not writable)", path)
+    if not existing.stat().st_mode & 0o222:
+        raise InputError(f"cannot write here ({existing} is read-only)", path)
+    _try_writing(target, existing, path)
     return path
+
+
+def _try_writing(folder: Path, existing: Path, path: Path) -> None:
+    """Make `folder` (the folders from `existing` down to it) and a temporary
+    file in it, then remove them all; `InputError` naming `path` if that fails."""
+    missing = []
+    while folder != existing:
+        missing.append(folder)
+        folder = folder.parent
+    made: list[Path] = []
+    try:
+        for step in reversed(missing):
+            step.mkdir()
+            made.append(step)
+        fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".check", dir=missing[0] if missing else existing)
+        os.close(fd)
+        os.unlink(name)
+    except OSError as error:
+        raise InputError(f"cannot write here ({error.strerror or error})", path) from None
+    finally:
+        for step in reversed(made):
+            with contextlib.suppress(OSError):
+                step.rmdir()
 
 
 def write_bytes_atomic(path: str | Path, data: bytes) -> Path:

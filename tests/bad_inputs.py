@@ -393,6 +393,103 @@ def _(tmp):
     return retarget(write_c3d(tmp / "ok.c3d", c3d_markers(), 30.0), "--up", "sideways")
 
 
+# --- retarget: a failed run writes nothing ----------------------------------------------------------
+# A run whose every input is refused leaves no report and no replay (nor a
+# clip); an output that cannot be written is found before any work, so no
+# clip is written ahead of the report, the replay or a later clip that fails.
+
+
+def _outputs(tmp: Path) -> list[str]:
+    return ["--report", str(tmp / "report.json"), "--html", str(tmp / "replay.html")]
+
+
+FAILED_RUNS: dict[str, tuple[Callable[[Path], Path], str]] = {
+    "bvh_binary_with_report": (lambda tmp: write(tmp, "binary.bvh", bytes(range(256)) * 4), "binary.bvh"),
+    "bvh_root_teleports_with_report": (lambda tmp: write(tmp, "jump.bvh", _bvh_with(_root_jump)), "jumps"),
+    "c3d_giant_with_report": (lambda tmp: _c3d_from(tmp, "giant.c3d", c3d_markers(), units="m"), "tall"),
+    "c3d_tiny_with_report": (
+        lambda tmp: write_c3d(tmp / "tiny.c3d", {k: v / 1000 for k, v in c3d_markers().items()}, 30.0),
+        "tall",
+    ),
+}
+for _name, (_make_file, _expect) in FAILED_RUNS.items():
+
+    def _make(tmp, make_file=_make_file):
+        return retarget(make_file(tmp), *_outputs(tmp))
+
+    case(_name, "cli", _expect)(_make)
+
+
+@case("report_in_a_read_only_folder", "cli", "report.json")
+def _(tmp):
+    (tmp / "locked").mkdir(mode=0o555)
+    return retarget(write(tmp, "ok.bvh", bvh_text()), "--report", str(tmp / "locked" / "report.json"))
+
+
+@case("html_under_a_read_only_folder", "cli", "replay.html")
+def _(tmp):
+    (tmp / "locked").mkdir(mode=0o555)
+    return retarget(write(tmp, "ok.bvh", bvh_text()), "--html", str(tmp / "locked" / "new" / "replay.html"))
+
+
+@case("report_beyond_a_broken_link", "cli", "report.json")
+def _(tmp):
+    (tmp / "link").symlink_to(tmp / "gone")
+    return retarget(write(tmp, "ok.bvh", bvh_text()), "--report", str(tmp / "link" / "report.json"))
+
+
+@case("out_clip_is_a_folder", "cli", "b_bruce.npz")
+def _(tmp):
+    (tmp / "out" / "b_bruce.npz").mkdir(parents=True)  # the second input's clip
+    module, argv = retarget(write(tmp, "a.bvh", bvh_text()))
+    return module, [argv[0], str(write(tmp, "b.bvh", bvh_text())), *argv[1:]]
+
+
+@case("html_of_second_clip_is_a_folder", "cli", "replay_b.html")
+def _(tmp):
+    (tmp / "replay_b.html").mkdir()  # with two inputs, replay.html becomes replay_a.html and replay_b.html
+    module, argv = retarget(write(tmp, "a.bvh", bvh_text()), "--html", str(tmp / "replay.html"))
+    return module, [argv[0], str(write(tmp, "b.bvh", bvh_text())), *argv[1:]]
+
+
+# --- retarget: a body that never stands upright -------------------------------------------------------
+# The height checks do not see a capture of the upper body (its height is
+# the arm span) laid on its side by a wrong --up, nor tell a body upside down.
+
+LEGS = tuple(f"{side}_{name}" for side in ("left", "right") for name in ("knee", "ankle", "toe"))
+LEG_MARKERS = tuple(f"{side}{name}" for side in "LR" for name in ("THI", "KNE", "TIB", "ANK", "HEE", "TOE"))
+
+
+def upper_body_bvh(tmp: Path) -> tuple[Path, Path]:
+    """The UDH BVH and a skeleton map that leaves its legs out (a capture of the upper body)."""
+    skeleton_map = write(tmp, "upper_body.yaml", "".join(f"{name}: null\n" for name in LEGS))
+    return write(tmp, "upper_body.bvh", bvh_text()), skeleton_map
+
+
+@case("bvh_upper_body_on_its_side", "cli", "upright")
+def _(tmp):
+    bvh, skeleton_map = upper_body_bvh(tmp)
+    return retarget(bvh, "--skeleton-map", str(skeleton_map), "--up", "x")  # the file is y up
+
+
+@case("c3d_upper_body_on_its_side", "cli", "upright")
+def _(tmp):
+    return retarget(write_c3d(tmp / "upper_body.c3d", _without(*LEG_MARKERS), 30.0), "--up", "y")  # z up
+
+
+@case("bvh_upside_down", "cli", "upright")
+def _(tmp):
+    return retarget(write(tmp, "ok.bvh", bvh_text()), "--up", "-y")  # "-y" after --up is its value
+
+
+@case("bvh_upper_body_on_its_side_api", "api", "upright")
+def _(tmp):
+    from hotu_drake.motion.load import load_motion
+
+    bvh, skeleton_map = upper_body_bvh(tmp)
+    return lambda: load_motion(bvh, skeleton_map, up="z")
+
+
 # --- clip files (.npz) -------------------------------------------------------------------------
 
 NPZ_CASES = {
@@ -607,7 +704,7 @@ def _checkpoint(tmp: Path, name: str, change) -> Path:
     import torch
 
     from hotu_drake.learning.checkpoint import save_checkpoint
-    from hotu_drake.learning.policy import PolicyConfig, PolicyNetwork
+    from hotu_drake.learning.networks import PolicyConfig, PolicyNetwork
 
     path = save_checkpoint(tmp / name, PolicyNetwork(PolicyConfig(5, 2, {}, (4,))), "bruce", "none")
     data = torch.load(path, weights_only=True)
@@ -823,7 +920,7 @@ def _run_folder(tmp: Path, robot: str, change=None) -> Path:
     import torch
 
     from hotu_drake.learning.checkpoint import save_checkpoint
-    from hotu_drake.learning.policy import PolicyConfig, PolicyNetwork
+    from hotu_drake.learning.networks import PolicyConfig, PolicyNetwork
 
     run = tmp / "run"
     run.mkdir()
@@ -875,8 +972,8 @@ def _controller_run(tmp: Path, robot: str = "udh", algo: str = "dail") -> Path:
     from hotu_drake.learning.checkpoint import save_checkpoint
     from hotu_drake.learning.config import preset
     from hotu_drake.learning.low_level import _style_networks
+    from hotu_drake.learning.networks import PolicyConfig, PolicyNetwork
     from hotu_drake.learning.parts import PartGroup
-    from hotu_drake.learning.policy import PolicyConfig, PolicyNetwork
 
     run = tmp / "llc"
     run.mkdir()

@@ -9,6 +9,7 @@ raise `InputError` naming the file or field.
 import contextlib
 import importlib
 import io
+import json
 
 import pytest
 
@@ -63,3 +64,118 @@ def test_the_corpus_is_large_and_covers_every_boundary():
     assert {"bvh", "c3d", "npz", "csv", "scenario", "marker", "env", "reset", "step", "checkpoint", "bench"} <= set(
         families
     )
+
+
+def _retarget(argv: list[str]) -> tuple[int, list[str]]:
+    """Run the retarget command in this process: its exit code and `error:` lines."""
+    stderr = io.StringIO()
+    with time_limit(TIME_LIMIT), contextlib.redirect_stderr(stderr), contextlib.redirect_stdout(io.StringIO()):
+        code = run_cli(_main("hotu_drake.retarget"), argv)
+    return code, [line for line in stderr.getvalue().splitlines() if line.startswith("error:")]
+
+
+def test_a_run_whose_every_input_is_refused_writes_nothing(tmp_path):
+    from tests.bad_inputs import bvh_text, write
+
+    bad = [write(tmp_path, "empty.bvh", ""), write(tmp_path, "cut.bvh", bvh_text()[:200])]
+    before = _files(tmp_path)
+    argv = [*map(str, bad), "--robot", "bruce", "--out", str(tmp_path / "out")]
+    code, errors = _retarget([*argv, "--report", str(tmp_path / "report.json"), "--html", str(tmp_path / "r.html")])
+    assert code == 2 and len(errors) == 2 and "empty.bvh" in errors[0] and "cut.bvh" in errors[1], errors
+    assert _files(tmp_path) == before
+
+
+def test_a_bad_input_among_good_ones_is_skipped_and_reported(tmp_path):
+    """Some inputs read: their clips and the report (with the refusals) are written, and the exit code is 2."""
+    from tests.bad_inputs import bvh_text, write
+
+    good, bad = write(tmp_path, "good.bvh", bvh_text()), write(tmp_path, "bad.bvh", "")
+    report = tmp_path / "report.json"
+    argv = [str(good), str(bad), "--robot", "bruce", "--out", str(tmp_path / "out"), "--report", str(report)]
+    code, errors = _retarget(argv)
+    assert code == 2 and len(errors) == 1 and "bad.bvh" in errors[0], errors
+    assert {p.name for p in (tmp_path / "out").iterdir()} == {"good_bruce.npz"}
+    figures = json.loads(report.read_text())
+    assert list(figures["clips"]) == ["good"] and len(figures["errors"]) == 1 and "bad.bvh" in figures["errors"][0]
+
+
+def test_allow_implausible_takes_a_body_on_its_side(tmp_path):
+    from tests.bad_inputs import upper_body_bvh
+
+    bvh, skeleton_map = upper_body_bvh(tmp_path)
+    argv = [str(bvh), "--robot", "udh", "--out", str(tmp_path / "out"), "--skeleton-map", str(skeleton_map)]
+    code, errors = _retarget([*argv, "--up", "x"])
+    assert code == 2 and len(errors) == 1 and "upright" in errors[0], errors
+    assert _retarget([*argv, "--up", "x", "--allow-implausible"]) == (0, [])
+    assert (tmp_path / "out" / "upper_body_udh.npz").is_file()
+
+
+def test_a_body_that_stands_up_at_some_time_is_upright():
+    """A capture that lies down, or gets up, passes; one upright in no frame does not (upper body only: its
+    height is the arm span, so only the upright check can refuse it)."""
+    import numpy as np
+
+    from hotu_drake.motion.human import human_clip, landmarks_of
+    from hotu_drake.motion.library.generate import generate
+    from hotu_drake.motion.load import check_human_motion
+    from tests.bad_inputs import LEGS
+
+    clip = generate("squat")
+    points = {name: p for name, p in landmarks_of(clip).items() if name not in LEGS}
+    turn = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])  # a quarter turn about x
+    pelvis = points["pelvis"]
+    lying = {name: np.einsum("ij,tj->ti", turn, p - pelvis) + pelvis for name, p in points.items()}
+    for standing, upright in ((0, False), (1, True), (clip.num_frames // 2, True)):
+        mixed = human_clip({n: np.concatenate([p[:standing], lying[n][standing:]]) for n, p in points.items()}, 30, "m")
+        if upright:
+            check_human_motion(mixed, "mixed")
+        else:
+            with pytest.raises(InputError, match="mixed: .*upright"):
+                check_human_motion(mixed, "mixed")
+
+
+def test_library_motions_are_plausible():
+    """Every generated motion (box_carry leans almost 50 degrees to lift the box) passes the input checks."""
+    from hotu_drake.motion.library.generate import MOTIONS, generate
+    from hotu_drake.motion.load import check_human_motion
+
+    for name in MOTIONS:
+        check_human_motion(generate(name), name)
+
+
+def test_an_output_that_cannot_be_made_is_refused_before_the_work(tmp_path, monkeypatch):
+    """What permission bits do not show (a full or read-only file system) is found by trying: the folders
+    the try made are removed again."""
+    import errno
+    import tempfile
+
+    from hotu_drake.io import check_output_path
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    assert check_output_path(tmp_path / "new" / "report.json") == tmp_path / "new" / "report.json"
+    monkeypatch.setattr(tempfile, "mkstemp", full)
+    with pytest.raises(InputError, match="report.json: cannot write here .No space left on device"):
+        check_output_path(tmp_path / "new" / "deeper" / "report.json")
+    with pytest.raises(InputError, match="out: cannot write here"):
+        check_output_path(tmp_path / "out", folder=True)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_write_that_fails_removes_the_other_outputs(tmp_path, monkeypatch):
+    import errno
+
+    from hotu_drake.retarget import replay
+    from tests.bad_inputs import bvh_text, write
+
+    def full(path, *args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(replay, "write_replay", full)
+    bvh = write(tmp_path, "ok.bvh", bvh_text())
+    before = _files(tmp_path)
+    argv = [str(bvh), "--robot", "bruce", "--out", str(tmp_path / "out"), "--report", str(tmp_path / "report.json")]
+    code, errors = _retarget([*argv, "--html", str(tmp_path / "replay.html")])
+    assert code == 2 and errors == [f"error: {tmp_path / 'replay.html'}: No space left on device"], errors
+    assert _files(tmp_path) == before

@@ -162,6 +162,18 @@ def body_height(points: Mapping[str, np.ndarray]) -> float:
     return float(np.median(span))
 
 
+def torso_tilt(points: Mapping[str, np.ndarray]) -> tuple[str, np.ndarray]:
+    """The torso's lean from the up axis (z), degrees per frame (0: upright,
+    90: lying, 180: upside down), and which segment gave it: the pelvis to
+    the neck, or the chest to the neck for a capture without the pelvis. A
+    torso of no length is taken as lying (it shows no uprightness)."""
+    low = "pelvis" if "pelvis" in points else "chest"
+    torso = np.asarray(points["neck"], dtype=float) - np.asarray(points[low], dtype=float)
+    length = np.linalg.norm(torso, axis=1)
+    cosine = np.divide(torso[:, 2], length, out=np.zeros(len(torso)), where=length > 0)
+    return f"{low} to neck", np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+
+
 def landmarks_of(clip: MotionClip) -> dict[str, np.ndarray]:
     """{landmark: (T, 3)} of a human clip."""
     return {name: clip.key_body_positions[:, i] for i, name in enumerate(clip.key_body_names)}

@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 
 from hotu_drake.motion.clip import ClipFormatError, MotionClip
-from hotu_drake.motion.human import body_height, landmarks_of
+from hotu_drake.motion.human import body_height, landmarks_of, torso_tilt
 
 SUFFIXES = (".bvh", ".c3d", ".npz")
 # What a captured person can be: a child to the tallest humans (standing
@@ -14,6 +14,12 @@ SUFFIXES = (".bvh", ".c3d", ".npz")
 # sprinter peaks near 12).
 HEIGHT_RANGE = (0.5, 2.6)
 MAX_ROOT_SPEED = 15.0
+# How far (degrees) the torso may lean from the up axis and still count as
+# upright; a captured person is upright at some time, unless the capture is
+# of lying or crawling or its up axis is wrong. A walk leans a few degrees,
+# lifting a box (the library's box_carry) or landing a jump (CMU 01_01)
+# almost 50; lying is near 90, upside down near 180.
+MAX_UPRIGHT_TILT = 60.0
 
 
 def load_motion(
@@ -32,7 +38,8 @@ def load_motion(
     file or a dict) the C3D markers (default: the built-in set that fits the
     file; `skeleton_map` is taken for it too, as before). `up` overrides the
     up axis found in the data. With `check_plausible`, a human clip must
-    have a human height and a root that does not jump (`check_human_motion`).
+    stand upright at some time, have a human height and a root that does not
+    jump (`check_human_motion`).
     Bad input raises `ClipFormatError` naming the file.
     """
     path = Path(path)
@@ -82,11 +89,27 @@ def check_retargetable(clip: MotionClip, where: str) -> None:
 
 
 def check_human_motion(clip: MotionClip, where: str) -> None:
-    """A human clip's skeleton is of human height and its root does not jump;
-    `ClipFormatError` with the figure otherwise (`check_plausible=False`,
-    the command lines' `--allow-implausible`, skips this for a capture that
-    is meant to be so: a giant puppet, cuts between takes)."""
-    height = body_height(landmarks_of(clip))
+    """A human clip stands upright in some frame, its skeleton is of human
+    height and its root does not jump; `ClipFormatError` with the figure
+    otherwise (`check_plausible=False`, the command lines'
+    `--allow-implausible`, skips this for a capture that is meant to be so:
+    lying down all along, a giant puppet, cuts between takes).
+
+    Uprightness is checked first: a body laid down by a wrong up axis also
+    has a wrong height, and the up axis is the mistake to name. It is what
+    the height misses for a capture without legs (whose height is its arm
+    span)."""
+    points = landmarks_of(clip)
+    segment, tilt = torso_tilt(points)
+    if len(tilt) and not np.any(tilt <= MAX_UPRIGHT_TILT):
+        least = float(np.min(tilt))
+        how = "upside down" if least > 180.0 - MAX_UPRIGHT_TILT else "lying down"
+        raise ClipFormatError(
+            f"{where}: the body never stands upright: the torso ({segment}) leans {least:.0f} degrees or more "
+            f"from the up axis in every frame (more than {MAX_UPRIGHT_TILT:g}; {how}): the wrong up axis (--up)? "
+            "(--allow-implausible to use it anyway)"
+        )
+    height = body_height(points)
     if not HEIGHT_RANGE[0] <= height <= HEIGHT_RANGE[1]:
         raise ClipFormatError(
             f"{where}: the skeleton is {height:.3g} m tall, not a person ({HEIGHT_RANGE[0]}-{HEIGHT_RANGE[1]} m): "
