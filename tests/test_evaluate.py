@@ -108,6 +108,7 @@ def test_the_perturbation_test_knocks_over_a_learned_controller(tmp_path):
     argv = ["perturbation", "--runs", str(run), "--momenta", "0,40", "--directions", "1", "--no-html"]
     assert main([*argv, "--out", str(tmp_path / "out")]) == 0
     rows = _rows(tmp_path / "out" / "perturbation.csv")
+    # From this direction the policy stands up to 12 kg m/s and falls from 15 (measured): 40 is far past it.
     assert [(float(r["momentum"]), int(r["falls"])) for r in rows] == [(0.0, 0), (40.0, 1)]
     assert (tmp_path / "out" / "perturbation.png").is_file()
 

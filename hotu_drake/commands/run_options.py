@@ -4,6 +4,9 @@ the settings a resumed run keeps (`train pretrain`, `skill`, `finetune`)."""
 from __future__ import annotations
 
 import functools
+import json
+import sys
+from collections.abc import Callable
 from pathlib import Path
 
 from hotu_drake.embodiment import EMBODIMENT_NAMES, HANDS_VARIANTS
@@ -110,3 +113,12 @@ def controller_robot(args, wanted: str, who: str) -> tuple[str, str]:
 def check_workers(workers: int | None) -> None:
     if workers is not None:
         check_number(workers, "--workers", low=1, high=64, integer=True)
+
+
+def report_at_end(args, folder: RunFolder, workers: int, evaluate: Callable, summary: Callable[[dict], dict]) -> None:
+    """A finished training command's evaluation (`--eval-episodes`, 0: none):
+    `evaluate` writes the run's report; its headline goes to standard error."""
+    if args.eval_episodes:
+        report = evaluate(folder, args.eval_episodes, seed=1000, workers=workers)
+        figures = {k: report[k] for k in ("samples", "wall_clock_seconds")} | summary(report)
+        print(json.dumps(figures), file=sys.stderr)

@@ -43,6 +43,7 @@ from hotu_drake.commands.run_options import (
     check_run_arguments,
     check_workers,
     motion_list,
+    report_at_end,
     resumed_settings,
 )
 from hotu_drake.embodiment import EMBODIMENT_NAMES, HANDS_VARIANTS
@@ -155,10 +156,7 @@ def pretrain(args) -> int:
         )
     finally:
         envs.close()
-    if args.eval_episodes:
-        report = evaluate_run(folder, args.eval_episodes, seed=1000, workers=settings["workers"])
-        figures = {k: report[k] for k in ("samples", "wall_clock_seconds")} | behavior_summary(report)
-        print(json.dumps(figures), file=sys.stderr)
+    report_at_end(args, folder, settings["workers"], evaluate_run, behavior_summary)
     return 0
 
 

@@ -24,7 +24,6 @@ turns into a Meshcat replay.
 from __future__ import annotations
 
 import copy
-import json
 import sys
 from pathlib import Path
 
@@ -37,6 +36,7 @@ from hotu_drake.commands.run_options import (
     controller_robot,
     load_controller,
     motion_list,
+    report_at_end,
     resumed_settings,
 )
 from hotu_drake.embodiment import EMBODIMENT_NAMES, HANDS_VARIANTS
@@ -200,10 +200,7 @@ def train_skill_run(settings: dict, config: SkillConfig, args, folder: RunFolder
         )
     finally:
         envs.close()
-    if args.eval_episodes:
-        report = evaluate_skill_run(folder, args.eval_episodes, seed=1000, workers=settings["workers"])
-        figures = {k: report[k] for k in ("samples", "wall_clock_seconds")} | task_summary(report)
-        print(json.dumps(figures), file=sys.stderr)
+    report_at_end(args, folder, settings["workers"], evaluate_skill_run, task_summary)
     return 0
 
 
