@@ -1023,6 +1023,12 @@ def _(tmp):
     return "hotu_drake.train", [*SKILL, "--llc", str(run), "--out", str(tmp / "skill")]
 
 
+@case("skill_demonstrations_without_the_drill", "cli", "carries a drill track")
+def _(tmp):
+    argv = ["skill", "--task", "drill_grasp", "--steps", "16", "--workers", "1", "--motions", "walk"]
+    return "hotu_drake.train", [*argv, "--llc", str(_controller_run(tmp)), "--out", str(tmp / "run")]
+
+
 @case("skill_config_hold_steps_zero", "cli", "hold_steps")
 def _(tmp):
     config = write(tmp, "skill.yaml", "high_level: {hold_steps: 0}\n")

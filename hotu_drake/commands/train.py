@@ -47,7 +47,7 @@ from hotu_drake.commands.run_options import (
     resumed_settings,
 )
 from hotu_drake.embodiment import EMBODIMENT_NAMES, HANDS_VARIANTS
-from hotu_drake.envs.runs import RunEnvironments, imitation_run
+from hotu_drake.envs.runs import imitation_run
 from hotu_drake.errors import InputError, check_choice, check_number
 from hotu_drake.io import check_output_path
 from hotu_drake.learning.agent import Agent
@@ -185,24 +185,36 @@ def _read_run(folder: RunFolder) -> tuple[dict, dict, TrainConfig]:
     return folder.settings(), checkpoint, config
 
 
-def _restored(folder: RunFolder, workers: int, seed: int) -> tuple[RunEnvironments, object, Agent]:
-    """A behavior run's last checkpoint in an agent on evaluation environments."""
-    settings, checkpoint, config = _read_run(folder)
-    torch.set_num_threads(config.torch_threads)
-    run = imitation_run(settings, config)
-    envs = run.vector_env(workers, evaluation=True)
-    agent = Agent(config, envs, run.demonstrations, action_offset=run.standing_action, seed=seed)
-    agent.load_state_dict(checkpoint["state"])
-    return run, envs, agent
+class RestoredRun:
+    """A behavior run's last checkpoint, ready to evaluate: its environments
+    and demonstrations (`run`), and on entering, evaluation workers and an
+    agent with the checkpoint's state (closed again on leaving)."""
+
+    def __init__(self, folder: RunFolder):
+        self.settings, self.checkpoint, self.config = _read_run(folder)
+        torch.set_num_threads(self.config.torch_threads)
+        self.run = imitation_run(self.settings, self.config)
+
+    def start(self, workers: int, seed: int) -> tuple[object, Agent]:
+        run = self.run
+        self.envs = run.vector_env(workers, evaluation=True)
+        try:
+            agent = Agent(self.config, self.envs, run.demonstrations, action_offset=run.standing_action, seed=seed)
+            agent.load_state_dict(self.checkpoint["state"])
+        except BaseException:
+            self.envs.close()
+            raise
+        return self.envs, agent
 
 
 def evaluate_run(folder: RunFolder | str | Path, episodes: int, seed: int, workers: int) -> dict:
     """Evaluate the run's last checkpoint and the standing robot
     (`learning.evaluation.behavior_report`); write and return `report.json`."""
     folder = folder if isinstance(folder, RunFolder) else RunFolder(folder)
-    run, envs, agent = _restored(folder, min(workers, episodes), seed)
+    restored = RestoredRun(folder)
+    envs, agent = restored.start(min(workers, episodes), seed)
     try:
-        report = behavior_report(agent, envs, run.standing_action, episodes, seed)
+        report = behavior_report(agent, envs, restored.run.standing_action, episodes, seed)
     finally:
         envs.close()
     report = {**folder.settings(), **run_record(agent), **report}
@@ -258,15 +270,15 @@ def trace_command(args) -> int:
         )
     check_number(args.seed, "--seed", low=0, high=2**31 - 1, integer=True)
     plt = pyplot("trace")
-    settings = folder.settings()
-    run, envs, agent = _restored(folder, 1, args.seed)
-    demos = run.demonstrations
+    restored = RestoredRun(folder)
+    demos = restored.run.demonstrations
+    parts = [p.strip() for p in args.parts.split(",") if p.strip()]
+    for part in parts:
+        if part not in demos.part_joints:
+            has = ", ".join(demos.part_joints)
+            raise InputError(f"--parts: {restored.settings['robot']} has no part {part!r} (has: {has})")
+    envs, agent = restored.start(1, args.seed)
     try:
-        parts = [p.strip() for p in args.parts.split(",") if p.strip()]
-        for part in parts:
-            if part not in demos.part_joints:
-                has = ", ".join(demos.part_joints)
-                raise InputError(f"--parts: {settings['robot']} has no part {part!r} (has: {has})")
         columns = np.asarray(demos.meta["joint_columns"])
         observations, _ = envs.reset(seed=args.seed)
         frames, fell = [], False

@@ -71,8 +71,6 @@ class Range:
 class _ObjectTaskEnv(DiagramEnv):
     """One free object, a target for it, and the interaction graph."""
 
-    object_kind = "box"
-
     def __init__(
         self,
         robot: str | None,
@@ -104,6 +102,11 @@ class _ObjectTaskEnv(DiagramEnv):
         self.hold_steps = int(round(HOLD_SECONDS / self.control_period))
         self._success_steps = 0
         self._succeeded = False
+
+    @property
+    def object_kind(self) -> str:
+        """The task's object: `box` or `drill` (its track's name in a demonstration)."""
+        return self._object.kind
 
     def _scene_objects(self, obj: SceneObject) -> list[SceneObject]:
         return [obj]
@@ -141,7 +144,7 @@ class _ObjectTaskEnv(DiagramEnv):
         track of this task's object."""
         clip = self.clips[clip_index]
         if self._track(clip) is None:
-            raise InputError(f"{clip.source}: no {self._object.kind} track (objects: {clip.object_names or 'none'})")
+            raise InputError(f"{clip.source}: no {self.object_kind} track (objects: {clip.object_names or 'none'})")
         return self._graph_port.Eval(self._clip_frame(clip_index, time_)).astype(np.float32)
 
     def clip_observation(self, clip_index: int, time_: float) -> np.ndarray:
@@ -185,7 +188,7 @@ class _ObjectTaskEnv(DiagramEnv):
         """The index of the clip's track of this task's object: the first object
         whose name starts with the object's kind, in any case (`box`, `Box1`,
         an OptiTrack rigid body `box_small`), or None."""
-        return track_index(clip, self._object.kind)
+        return track_index(clip, self.object_kind)
 
     def _count_success(self, info: dict, done: bool) -> None:
         """Count consecutive steps in the task's end state into

@@ -52,7 +52,19 @@ from hotu_drake.motion.clip import MotionClip
 from hotu_drake.retarget.pipeline import to_robot
 from hotu_drake.systems.transfer_reference import TARGET_TRACK, TransferReference, reference_size
 
-__all__ = ["TARGET_TRACK", "BoxCarryTransferEnv", "DrillGraspTransferEnv", "tracking_reward"]
+__all__ = [
+    "TARGET_TRACK",
+    "BoxCarryTransferEnv",
+    "DrillGraspTransferEnv",
+    "TwoLevelController",
+    "make_references",
+    "record_skill_episodes",
+    "retarget_episode",
+    "skill_controller",
+    "skill_summary",
+    "tracking_reward",
+    "with_target",
+]
 
 # r = 0.5 exp(-5 mean dq^2) + 0.3 exp(-10 mean |dp_key|^2) + 0.2 exp(-10 |dp_object|^2), DeepMimic's
 # form with per-frame means; the scales make a 0.3 rad, 0.2 m, 0.2 m error worth about 2/3 (not tuned).
@@ -85,7 +97,7 @@ class _TransferMixin:
         for clip in self.clips:
             if list(clip.key_body_names) != list(self.clips[0].key_body_names):
                 raise InputError(f"{clip.source}: other key bodies than {self.clips[0].source}", where)
-        self._references = [TransferReference(c, self._object.kind, self.control_period) for c in self.clips]
+        self._references = [TransferReference(c, self.object_kind, self.control_period) for c in self.clips]
         plant, model = self.sim.plant, self.sim.model
         self._key_bodies = [plant.GetBodyByName(n, model) for n in self.clips[0].key_body_names]
         self._joint_columns = self._observer.joint_position_columns.copy()  # joint order = the clips' (checked)

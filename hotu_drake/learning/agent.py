@@ -113,9 +113,9 @@ class Agent(BaseAgent):
                 std[joint] = value
         return std
 
-    def _reset_envs(self) -> dict:
+    def _reset_envs(self) -> None:
         self._low_style = np.zeros(self.num_envs, dtype=np.int64)
-        return super()._reset_envs()
+        super()._reset_envs()
 
     def group_windows(self, amp: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Each group's windows from AMP windows (..., K, d_key) per key (`info["amp"]`)."""
@@ -194,14 +194,7 @@ class Agent(BaseAgent):
 
     # -- one iteration -------------------------------------------------------------
 
-    def update(self, rollout: Rollout, rewards: dict[str, np.ndarray]) -> dict[str, float]:
-        """PPO on the rollout (with the diversity and cloning terms), then the style networks, then the normalisers."""
-        return self.ppo_update(rollout, rewards["total"], self._extra_losses)
-
-    def _after_ppo(self, rollout: Rollout) -> dict[str, float]:
-        return self._update_style(rollout)
-
-    def _extra_losses(self, mb: PPOBatch, mean: torch.Tensor) -> dict[str, torch.Tensor]:
+    def extra_losses(self, mb: PPOBatch, mean: torch.Tensor) -> dict[str, torch.Tensor]:
         """The actor's losses besides PPO's: ASE's diversity, and the cloning term."""
         return self._diversity(mb, mean) | self._cloning()
 
@@ -254,7 +247,9 @@ class Agent(BaseAgent):
         motions = self.group_motions[group.name]
         return self.demos.sample_windows(group, count, self.rng, motions, self.config.style.still_speed)
 
-    def _update_style(self, rollout: Rollout) -> dict[str, float]:
+    def update_judges(self, rollout: Rollout) -> dict[str, float]:
+        """The style networks: discriminators (and encoders) on this
+        iteration's windows, half of them from the replay buffer."""
         s = self.config.style
         batch = s.batch_size
         stats: dict[str, float] = {}

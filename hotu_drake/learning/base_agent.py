@@ -6,9 +6,11 @@ counters and episode log, and the iteration:
 
 1. `collect`: `ppo.horizon` steps of every environment through the one
    rollout loop (`rollout.RolloutCollector`), the agent `decide`-ing each
-   action and `observe`-ing each step;
-2. `rewards`: the learner's reward of every step (`total`) and its terms;
-3. `update`: PPO on the rollout, then whatever else the learner trains.
+   action and `observe`-ing each step, and the critic's values;
+2. `rewards`: the learner's reward of every step (`total`) and its terms
+   (with 1 and 2, the iteration's `rollout_seconds`);
+3. `update`: PPO on the rollout, then whatever else the learner trains
+   (`update_seconds`).
 
 Subclasses (`agent.Agent` for behavior primitives and one-level skills,
 `skill_agent.SkillAgent` for two-level skills and fine-tunes) give the
@@ -27,7 +29,7 @@ import torch
 from hotu_drake.learning.buffers import EpisodeLog
 from hotu_drake.learning.logger import count_iteration
 from hotu_drake.learning.networks import ActorCritic
-from hotu_drake.learning.ppo import PPO, gae, make_batch
+from hotu_drake.learning.ppo import PPO, PPOBatch, gae, make_batch
 from hotu_drake.learning.rollout import Decision, Rollout, RolloutCollector, Step
 
 HALF_LOG_2PI = 0.5 * math.log(2.0 * math.pi)
@@ -52,16 +54,14 @@ class BaseAgent:
         self.counters: dict = {"iteration": 0, "samples": 0, "episodes": 0, "falls": 0, "seconds": 0.0}
         self.collector: RolloutCollector | None = None
 
-    def _reset_envs(self) -> dict:
-        """Start every environment afresh (also after a resume); the reset's info."""
+    def _reset_envs(self) -> None:
+        """Start every environment afresh (also after a resume)."""
         seed = int(self.rng.integers(2**31))
         if self.collector is None:
             self.collector = RolloutCollector(self.envs, seed, self.record)
-            info = self.collector.info
         else:
-            info = self.collector.reset(seed)
+            self.collector.reset(seed)
         self.episodes.restart()
-        return info
 
     # -- policy ------------------------------------------------------------------
 
@@ -112,8 +112,11 @@ class BaseAgent:
     # -- one iteration -------------------------------------------------------------
 
     def collect(self) -> Rollout:
-        """`ppo.horizon` steps of every environment."""
-        return self.collector.collect(self, self.config.ppo.horizon)
+        """`ppo.horizon` steps of every environment, with the critic's values."""
+        rollout = self.collector.collect(self, self.config.ppo.horizon)
+        rollout.values = self.values(rollout.observations, rollout.latents)
+        rollout.next_values = self.values(rollout.next_observations, rollout.latents)
+        return rollout
 
     def num_samples(self, rollout: Rollout) -> int:
         """The samples (control steps) a rollout counts for."""
@@ -123,27 +126,27 @@ class BaseAgent:
         """`total` (T, N) and its terms."""
         raise NotImplementedError
 
-    def ppo_update(self, rollout: Rollout, total: np.ndarray, extra_loss=None) -> dict[str, float]:
-        """GAE and the PPO epochs on the rollout rewarded by `total`; the
-        policy's observation normaliser last."""
+    def update(self, rollout: Rollout, rewards: dict[str, np.ndarray]) -> dict[str, float]:
+        """GAE and the PPO epochs on the rollout rewarded by `rewards["total"]`
+        (the actor's loss with the learner's `extra_losses`), then its judges
+        (`update_judges`), then the policy's observation normaliser."""
         c, r = self.config.ppo, rollout
-        values = self.values(r.observations, r.latents)
-        next_values = self.values(r.next_observations, r.latents)
-        advantages = gae(total, values, next_values, r.terminated, r.ended, c.gamma, c.lam)
+        advantages = gae(rewards["total"], r.values, r.next_values, r.terminated, r.ended, c.gamma, c.lam)
         batch = make_batch(
-            self.model, r.observations, r.latents, r.actions, r.log_probs, values, advantages, c.normalize_value
+            self.model, r.observations, r.latents, r.actions, r.log_probs, r.values, advantages, c.normalize_value
         )
-        stats = self.ppo.update(batch, self.generator, extra_loss)
-        stats |= self._after_ppo(rollout)
+        stats = self.ppo.update(batch, self.generator, self.extra_losses)
+        stats |= self.update_judges(rollout)
         self.model.policy.normalizer.update(batch.observations)
         return stats
 
-    def _after_ppo(self, rollout: Rollout) -> dict[str, float]:
-        """What the learner trains between PPO and the normaliser update (its judges); their statistics."""
+    def extra_losses(self, minibatch: PPOBatch, mean: torch.Tensor) -> dict[str, torch.Tensor]:
+        """The actor's losses besides PPO's, on a minibatch and its mean actions."""
         return {}
 
-    def update(self, rollout: Rollout, rewards: dict[str, np.ndarray]) -> dict[str, float]:
-        return self.ppo_update(rollout, rewards["total"])
+    def update_judges(self, rollout: Rollout) -> dict[str, float]:
+        """What the learner trains besides the actor-critic (its discriminators); their statistics."""
+        return {}
 
     def iteration(self) -> dict[str, float]:
         """Collect, reward, update; the iteration's statistics."""
@@ -153,9 +156,9 @@ class BaseAgent:
         # the cores are theirs); all of them for the update, while they wait.
         torch.set_num_threads(1)
         rollout = self.collect()
+        rewards = self.rewards(rollout)  # the judges do not change during a collection: its part
         collected = time.perf_counter()
         torch.set_num_threads(self.config.torch_threads)
-        rewards = self.rewards(rollout)
         self.model.train()
         stats = self.update(rollout, rewards)
         end = time.perf_counter()

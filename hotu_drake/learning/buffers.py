@@ -1,34 +1,12 @@
-"""Buffers of the trainer: what a rollout returns, and the discriminators'
-replay of past policy windows."""
+"""Buffers of the trainers: the episodes as they end, the discriminators'
+replay of past policy windows, and state dicts as tensors."""
 
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
 
 import numpy as np
 import torch
-
-
-@dataclass
-class Rollout:
-    """One iteration's samples, shaped (T, N, ...)."""
-
-    observations: np.ndarray
-    latents: dict[str, np.ndarray]  # group -> (T, N, z): the latent each step was taken with
-    actions: np.ndarray
-    log_probs: np.ndarray
-    values: np.ndarray  # the critic's values (reward units)
-    next_values: np.ndarray  # the value of the state after each step (reward units)
-    terminated: np.ndarray
-    ended: np.ndarray  # terminated or truncated
-    windows: dict[str, np.ndarray]  # group -> (T, N, K, d): the AMP window after each step
-    style_terminated: np.ndarray  # ended by the style-reward rule
-    task: np.ndarray | None = None  # (T, N) the environment's own reward (a task's r_g)
-
-    @property
-    def num_samples(self) -> int:
-        return self.actions.shape[0] * self.actions.shape[1]
 
 
 class EpisodeLog:

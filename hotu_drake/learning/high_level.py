@@ -20,6 +20,7 @@ import gymnasium as gym
 import numpy as np
 
 from hotu_drake.learning.low_level import LowLevelController
+from hotu_drake.learning.rollout import last_frames
 
 
 def to_latents(raw: np.ndarray, groups: list[str], size: int) -> dict[str, np.ndarray]:
@@ -41,6 +42,13 @@ def interaction_of(info: dict, num_envs: int) -> np.ndarray:
     if "interaction" not in info:
         raise ValueError("the environment gives no info['interaction'] (s_I): not a task environment")
     return np.asarray(info["interaction"], dtype=np.float32).reshape(num_envs, -1).copy()
+
+
+def alive_mean(values: np.ndarray, alive: np.ndarray, axis: int = 0) -> np.ndarray:
+    """The mean over a high-level step's control steps (`axis`) of `values`,
+    over those in its episode (`alive`): what a high-level step earns."""
+    lived = np.maximum(alive.sum(axis), 1)
+    return (np.where(alive, values, 0.0).sum(axis) / lived).astype(np.float32)
 
 
 class HighLevelEnv(gym.vector.VectorEnv):
@@ -103,13 +111,8 @@ class HighLevelEnv(gym.vector.VectorEnv):
             action = self.llc.act(self._observations, latents)
             observation, task, term, trunc, info = self.envs.step(action)
             done = term | trunc
-            after, interaction = observation.copy(), interaction_of(info, n)
-            amp = {key: np.array(v) for key, v in info.get("amp", {}).items() if not key.startswith("_")}
-            for i in np.flatnonzero(done):  # same-step reset: the ended episode's last frames
-                after[i] = info["final_obs"][i]
-                interaction[i] = info["final_info"]["interaction"][i]
-                for key in amp:
-                    amp[key][i] = info["final_info"]["amp"][key][i]
+            interaction_of(info, n)  # raises unless the environment is a task's (it gives s_I)
+            after, amp, interaction = last_frames(observation, done, info)
             success = info.get("final_info", {}).get("success")
             row = {
                 "alive": alive.copy(),
@@ -132,13 +135,12 @@ class HighLevelEnv(gym.vector.VectorEnv):
             key: ({a: np.stack([v[a] for v in values]) for a in values[0]} if key == "amp" else np.stack(values))
             for key, values in rows.items()
         }
-        lived = np.maximum(control["alive"].sum(0), 1)
-        reward = np.where(control["alive"], control["task"], 0.0).sum(0) / lived
+        reward = alive_mean(control["task"], control["alive"])
         inputs = high_level_input(self._observations, self._interaction)
         info = {"final_obs": last, "control": control}
         return inputs, reward.astype(np.float32), terminated, ended & ~terminated, info
 
-    def close(self, **kwargs) -> None:
+    def close_extras(self, **kwargs) -> None:
         self.envs.close()
 
 

@@ -118,6 +118,8 @@ class Rollout:
     latents: dict[str, np.ndarray] = field(default_factory=dict)  # group -> (T, N, z)
     cut: np.ndarray | None = None  # (T, N): episodes the learner ended early
     info: dict[str, Any] = field(default_factory=dict)  # the recorded `info` keys, stacked
+    values: np.ndarray | None = None  # (T, N): a learner's critic on `observations`, at collection
+    next_values: np.ndarray | None = None  # (T, N): and on `next_observations`
 
     @property
     def ended(self) -> np.ndarray:
@@ -136,24 +138,14 @@ class RolloutCollector:
         self.envs, self.record = envs, tuple(record)
         self.reset(seed)
 
-    def reset(self, seed: int | None = None) -> dict:
-        """Start every environment afresh; the reset's info."""
-        self.observations, self.info = self.envs.reset(seed=seed)
-        return self.info
+    def reset(self, seed: int | None = None) -> None:
+        """Start every environment afresh."""
+        self.observations, _ = self.envs.reset(seed=seed)
 
     def step(self, action: np.ndarray) -> Step:
         """One step of every environment, the ended episodes' last frames in `after`, `amp` and `interaction`."""
         observation, reward, terminated, truncated, info = self.envs.step(action)
-        ended = terminated | truncated
-        after = observation.copy()
-        amp = {key: np.array(v) for key, v in info.get("amp", {}).items() if not key.startswith("_")}
-        interaction = np.array(info["interaction"], dtype=np.float32) if "interaction" in info else None
-        for i in np.flatnonzero(ended):  # same-step reset: the ended episode's last frames are in final_*
-            after[i] = info["final_obs"][i]
-            for key in amp:
-                amp[key][i] = info["final_info"]["amp"][key][i]
-            if interaction is not None:
-                interaction[i] = info["final_info"]["interaction"][i]
+        after, amp, interaction = last_frames(observation, terminated | truncated, info)
         return Step(observation, after, np.asarray(reward), terminated, truncated, amp, interaction, info)
 
     def end_episodes(self, mask: np.ndarray, step: Step) -> None:
@@ -196,12 +188,30 @@ class RolloutCollector:
             }
             for key, value in row.items():
                 rows.setdefault(key, []).append(value)
-            self.observations, self.info = step.observations, step.info
+            self.observations = step.observations
         stacked = {key: _stack(values) for key, values in rows.items()}
         stacked["rewards"] = stacked["rewards"].astype(np.float32)
         if observe is None:
             stacked["cut"] = None
         return Rollout(**stacked)
+
+
+def last_frames(
+    observation: np.ndarray, ended: np.ndarray, info: dict
+) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray | None]:
+    """What a vector step reached: its observations, `info["amp"]` and
+    `info["interaction"]` (copies), with an ended episode's own last frames
+    (`final_obs`, `final_info`) where the environment already reset it."""
+    after = observation.copy()
+    amp = {key: np.array(v) for key, v in info.get("amp", {}).items() if not key.startswith("_")}
+    interaction = np.array(info["interaction"], dtype=np.float32) if "interaction" in info else None
+    for i in np.flatnonzero(ended):
+        after[i] = info["final_obs"][i]
+        for key in amp:
+            amp[key][i] = info["final_info"]["amp"][key][i]
+        if interaction is not None:
+            interaction[i] = info["final_info"]["interaction"][i]
+    return after, amp, interaction
 
 
 def _plain(policy: Callable[[np.ndarray], np.ndarray]) -> Callable[[np.ndarray], Decision]:

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from hotu_drake.learning.base_agent import BaseAgent
-from hotu_drake.learning.high_level import HighLevelEnv, SkillController
+from hotu_drake.learning.high_level import HighLevelEnv, SkillController, alive_mean
 from hotu_drake.learning.interaction import InteractionJudge
 from hotu_drake.learning.low_level import LowLevelController
 from hotu_drake.learning.networks import ActorCritic, PolicyConfig
@@ -121,11 +121,11 @@ class SkillAgent(BaseAgent):
         control = rollout.info["control"]  # (T, k, N, ...)
         alive = control["alive"]
         step_terms = self.control_step_rewards(control["amp"], control["pairs"], control["task"])
-        lived = np.maximum(alive.sum(1), 1)
-        terms = {name: (np.where(alive, r, 0.0).sum(1) / lived).astype(np.float32) for name, r in step_terms.items()}
+        terms = {name: alive_mean(r, alive, axis=1) for name, r in step_terms.items()}
         return {**terms, "total": self.combine(terms)}
 
-    def _after_ppo(self, rollout: Rollout) -> dict[str, float]:
+    def update_judges(self, rollout: Rollout) -> dict[str, float]:
+        """D_I on every control step's (s_I, s_I') in its episode."""
         control = rollout.info["control"]
         transitions = control["pairs"][control["alive"]]  # every control step's (s_I, s_I') in its episode
         if self.judge is not None and len(transitions):
