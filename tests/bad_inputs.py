@@ -859,6 +859,8 @@ OTHER_CLI = {
     "bench_env_seconds_huge": ("hotu_drake.bench", ["env", "--seconds", "1e9"], "--seconds"),
     "bench_retarget_missing_input": ("hotu_drake.bench", ["retarget", "--input", "/nonexistent/walk.bvh"], "walk.bvh"),
     "bench_retarget_pairs_negative": ("hotu_drake.bench", ["retarget", "--peer", "mink", "--pairs", "-1"], "--pairs"),
+    "bench_readers_missing_input": ("hotu_drake.bench", ["readers", "--input", "/nonexistent/walk.bvh"], "walk.bvh"),
+    "bench_readers_repeats_zero": ("hotu_drake.bench", ["readers", "--repeats", "0"], "--repeats"),
     "models_export_unknown": ("hotu_drake.models", ["export", "atlas", "--format", "sdf", "--out", "x.sdf"], "atlas"),
     "models_export_height_negative": (
         "hotu_drake.models",

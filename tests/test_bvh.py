@@ -1,7 +1,5 @@
 """BVH reading and writing: UDH round trips, channel orders, units, naming families, user maps, bad input."""
 
-import time
-
 import numpy as np
 import pytest
 
@@ -326,23 +324,20 @@ def test_units_and_up_overrides(tmp_path):
     np.testing.assert_allclose(as_z_up[..., 1], auto[..., 2])
 
 
-def test_many_frames_are_read_fast(tmp_path):
+def test_many_frames_are_read(tmp_path):
+    """Their cost is a benchmark's (`python -m hotu_drake.bench readers --input FILE`), not a timed test's."""
     frames = 3000
     angles = np.random.default_rng(1).uniform(-30, 30, (frames, 6 + 3 * (len(FAMILIES["cmu_3dsmax"]) - 1)))
     path = tmp_path / "long.bvh"
     path.write_text(skeleton_bvh(FAMILIES["cmu_3dsmax"], frames=frames, angles=angles))
-    start = time.perf_counter()
     clip = read_bvh(path)
-    assert clip.num_frames == frames
-    assert time.perf_counter() - start < 1.5
+    assert clip.num_frames == frames and np.all(np.isfinite(clip.key_body_positions))
 
 
 def test_cmu_clip():
     if not CMU_CLIP.is_file():
         pytest.skip("the CMU sample is not available")
-    start = time.perf_counter()
     clip = read_bvh(CMU_CLIP)
-    assert time.perf_counter() - start < 2.0
     assert clip.num_frames == 2752 and clip.fps == 120.0
     landmarks = landmarks_of(clip)
     # Bone-chain height (head top to ankles, pose-independent) and the head top over the floor.

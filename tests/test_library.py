@@ -1,8 +1,6 @@
 """The procedural demonstration library: every motion is valid, deterministic
 and looks like what it is named (feet planted, hands on the box, ...)."""
 
-import time
-
 import numpy as np
 import pytest
 
@@ -23,11 +21,8 @@ def udh():
 
 @pytest.fixture(scope="module")
 def clips(udh):
-    """Every motion on the UDH, generated once (and timed)."""
-    start = time.perf_counter()
-    out = {name: generate_udh(name, udh=udh) for name in MOTIONS}
-    out["_seconds"] = time.perf_counter() - start
-    return out
+    """Every motion on the UDH, generated once (its cost: `python -m hotu_drake.bench readers`)."""
+    return {name: generate_udh(name, udh=udh) for name in MOTIONS}
 
 
 @pytest.fixture(scope="module")
@@ -71,10 +66,6 @@ def test_vocabulary():
     )  # fmt: skip
     with pytest.raises(ValueError, match="unknown motion"):
         generate_udh("moonwalk")
-
-
-def test_whole_library_is_fast(clips):
-    assert clips["_seconds"] < 10.0
 
 
 @pytest.mark.parametrize("name", MOTIONS)

@@ -11,10 +11,12 @@ python -m hotu_drake.bench fidelity [--robot NAME|all] [--rates HZ ...] [--thres
                                     [--reference-rate HZ] [--markdown]
 python -m hotu_drake.bench train    [--robot NAME] [--motions M ...] [--workers N ...] [--iterations K]
                                     [--algo dail|amp|ase|pmp]
+python -m hotu_drake.bench readers  [--input FILE ...] [--repeats N]
 """
 
 import json
 import sys
+from pathlib import Path
 
 from hotu_drake import embodiment
 from hotu_drake.bench.standing import machine, one_core, pin_to_one_core, standing_realtime_factor
@@ -285,6 +287,21 @@ def _train(args) -> int:
     return 0
 
 
+def _readers(args) -> int:
+    from hotu_drake.bench.readers import library_seconds, read_seconds
+
+    check_number(args.repeats, "--repeats", low=1, high=100, integer=True)
+    for path in args.input:
+        if not Path(path).is_file():
+            raise InputError(f"{path}: no such file")
+    pin_to_one_core()
+    library = library_seconds()
+    print(json.dumps(library), file=sys.stderr, flush=True)
+    files = [read_seconds(path, args.repeats) for path in args.input]
+    print(json.dumps({"benchmark": "readers", "machine": machine(), "library": library, "files": files}, indent=2))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = ArgumentParser(prog="python -m hotu_drake.bench", description="Benchmarks that print JSON.")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -345,7 +362,12 @@ def main(argv: list[str] | None = None) -> int:
     train.add_argument("--workers", type=int, nargs="+", default=[1, 2], help="worker counts to measure (default 1 2)")
     train.add_argument("--iterations", type=int, default=8, help="measured iterations per worker count (default 8)")
     train.add_argument("--algo", default="dail", help="dail | amp | ase | pmp")
+    readers = sub.add_parser("readers", help="seconds to generate the motion library and to read motion files")
+    readers.add_argument("--input", nargs="*", default=[], help="motion files to read (BVH, C3D, CSV, .npz)")
+    readers.add_argument("--repeats", type=int, default=3, help="reads per file; the median is reported (default 3)")
     args = parser.parse_args(argv)
+    if args.command == "readers":
+        return _readers(args)
     if args.command == "train":
         return _train(args)
     if args.command == "fidelity":
