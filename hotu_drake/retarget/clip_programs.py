@@ -39,6 +39,7 @@ from pydrake.solvers import MathematicalProgram, OsqpSolver, SolverOptions
 
 from hotu_drake.embodiment.spec import SIDES
 from hotu_drake.retarget.part_ik import FINGER_LEVEL, SHAPE_TOLERANCE, TRUST_REGION
+from hotu_drake.retarget.targets import sideways_target
 from hotu_drake.retarget.tree import Pose
 from hotu_drake.rotations import heading_rotation, normalize
 
@@ -254,6 +255,10 @@ class ClipSolver:
                 if kind == "dir":
                     direction = normalize(src[key[2]] - src[key[1]], floor=1e-9)
                     out[key] = self.r.calibrated(key, direction, src, src_frames)
+                elif kind == "level":
+                    out[key] = np.zeros(len(src_frames["pelvis"]))
+                elif kind == "side":
+                    out[key] = sideways_target(src, src_frames, key, self.r.rest_leg_length, self.r.stance_of(key))
                 elif kind == "bend":
                     a, b, c = (src[n] for n in key[1:])
                     out[key] = np.cross(normalize(b - a, floor=1e-9), normalize(c - b, floor=1e-9))

@@ -18,6 +18,7 @@ from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
 from hotu_drake.retarget.neutral import calibrate
 from hotu_drake.retarget.retargeter import Retargeter, foot_contacts_of, whole_finger_points
 from hotu_drake.retarget.source_frames import source_frames
+from hotu_drake.retarget.stance import leg_contacts, stance
 from hotu_drake.retarget.tree import Tree
 from hotu_drake.rotations import finite_difference, heading_rotation, quat_to_matrix, rotation_log
 
@@ -36,6 +37,7 @@ DIRECTION_FIGURES = ("part_direction_error_deg", "part_direction_error_neutral_d
 # Key bodies and the landmark they are measured from (hands from the chest,
 # feet from the pelvis), so a wheeled base or a short torso is not penalised twice.
 KEY_BODIES = {"left_wrist": "chest", "right_wrist": "chest", "left_ankle": "pelvis", "right_ankle": "pelvis"}
+LEG_PENETRATION_ALLOWED = 0.005  # m: deeper than this between the two legs counts (`leg_penetration_share`)
 
 
 def clip_landmarks(emb: embodiments.Embodiment, clip: MotionClip) -> dict[str, np.ndarray]:
@@ -144,6 +146,11 @@ def report(source: MotionClip, result: MotionClip, emb: embodiments.Embodiment, 
             for side in soles.feet
         )
         out["foot_penetration_m"] = round(max(0.0, -lowest), 4)
+        # The robot's own stance (feet apart over its standing width), and its legs clear of each other.
+        out["stance_ratio"] = stance(emb, dst)
+        depths = leg_contacts(emb).depths(result)
+        out["leg_penetration_m"] = round(float(depths.max()), 4)
+        out["leg_penetration_share"] = round(float(np.mean(depths > LEG_PENETRATION_ALLOWED)), 4)
     else:
         out["foot_skate_m_per_s"] = None
         out["foot_penetration_m"] = None

@@ -30,14 +30,34 @@ from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
 from hotu_drake.retarget.neutral import calibrate, neutral_calibration
 from hotu_drake.retarget.part_ik import FINGER_LEVEL, SHAPE_TOLERANCE, PartProblem
 from hotu_drake.retarget.source_frames import hand_frame_kind, source_frames
-from hotu_drake.retarget.targets import BendPlane, Coupling, Direction, Landmarks, Orientation, Position
+from hotu_drake.retarget.stance import leg_clearance
+from hotu_drake.retarget.targets import (
+    BendPlane,
+    Coupling,
+    Direction,
+    Landmarks,
+    LevelSideways,
+    Orientation,
+    Position,
+    Sideways,
+    SidewaysStance,
+    sideways_offsets,
+    sideways_target,
+)
 from hotu_drake.retarget.tree import Tree, cross, rotation_vector
+from hotu_drake.retarget.udh_rest import udh_rest_landmarks
 from hotu_drake.rotations import heading_rotation, matrix_to_quat
 
 LOCK_STEPS = 2  # leg-IK steps at most per planted foot and frame
 LOCK_TOLERANCE = 0.002  # m: a planted ankle this close to its anchor is left alone
 LEVEL_TOLERANCE = 0.01  # rad: and a planted sole this close to level
 WRIST_POINTING_WEIGHT = 3.0  # the wrist-to-hand direction's weight beside the hand frame's (1)
+# A foot's sideways offset from its own hip (m), beside the thigh's direction (1): the robot keeps its
+# own stance where its hips are wider apart (for its leg length) than the source's.
+SIDEWAYS_WEIGHT = 10.0
+# A foot's roll held at level, beside its toe's direction (1): a swing foot rolled to point its toe hit
+# the other leg (Walker's library walk: 3 cm into the other shank).
+LEVEL_WEIGHT = 0.5
 
 
 @dataclass
@@ -102,6 +122,8 @@ class Retargeter:
         self.rest = self.marks.all_positions(rest_pose)
         self.rest_frames = self._rest_frames()
         self.pelvis_offset = self.rest["pelvis"] - rest_pose.positions[self.tree.root]
+        self.rest_leg_length = leg_length(self.rest) if "left_ankle" in self.rest else 0.0
+        self.stance = self._stance() if "left_ankle" in self.rest else {}
         self.soles = Soles(self.spec, self.tree)
         self.legged = "left_ankle" in self.marks and "left_ankle" in source_landmarks
         self.parts = self._build_parts(set(source_landmarks))
@@ -131,6 +153,33 @@ class Retargeter:
             if f"{side}_toe" in p and "pelvis" in out:
                 out[f"{side}_foot"] = frames.foot_frame(p, side, out["pelvis"][:, 1])
         return out
+
+    def _stance(self) -> dict[tuple[str, str], SidewaysStance]:
+        """Per (hip, leg point: knee, ankle or toe): the standing pose's offset
+        from the hip (m, sideways), the human standing straight's (the UDH
+        at rest) per unit of leg, and the bounds that keep the point on its
+        side of the midline, clear of the other leg (`leg_clearance`); the
+        toe's keeps a foot from turning into the other."""
+        standing_pose = self.tree.forward(self.embodiment.standing_pose)
+        standing = {k: v[None] for k, v in self.marks.all_positions(standing_pose).items()}
+        human = {k: v[None] for k, v in udh_rest_landmarks().items()}
+        human_leg = leg_length(human)
+        heading = heading_rotation(frames.pelvis_frame(standing))[0]
+        middle = (standing["left_hip"][0] + standing["right_hip"][0]) / 2
+        clearance = leg_clearance(self.spec)
+        out = {}
+        for point in ("knee", "ankle", "toe"):
+            own, neutral = sideways_offsets(standing, point), sideways_offsets(human, point)
+            for s, sign in (("left", 1.0), ("right", -1.0)):
+                hip = float(heading[:, 1] @ (standing[f"{s}_hip"][0] - middle))  # the hip's own side of the midline
+                clear = clearance[point] / 2 - sign * hip  # the offset that brings the point to half the clearance
+                low, high = (clear, np.inf) if sign > 0 else (-np.inf, -clear)
+                out[(f"{s}_hip", point)] = SidewaysStance(float(own[s][0]), float(neutral[s][0]) / human_leg, low, high)
+        return out
+
+    def stance_of(self, key: tuple) -> SidewaysStance:
+        """The `SidewaysStance` of a sideways target's key."""
+        return self.stance[(key[1], key[4].rsplit("_", 1)[1])]
 
     def _joints(self, prefix: str) -> list[int]:
         return [i for i, n in enumerate(self.tree.joint_names) if n.startswith(prefix)]
@@ -220,12 +269,42 @@ class Retargeter:
             if knee and {f"{s}hip", f"{s}knee", f"{s}ankle"} <= both:
                 sign = self._hinge_sign(knee[0], f"{s}hip", f"{s}knee", f"{s}ankle")
                 bend = (BendPlane(knee[0], sign), ("bend", f"{s}hip", f"{s}knee", f"{s}ankle"))
-            add(f"{s}hip", 1, self._joints(f"{s}hip_"), [self._direction(both, f"{s}hip", f"{s}knee"), bend])
+            add(
+                f"{s}hip",
+                1,
+                self._joints(f"{s}hip_"),
+                [
+                    self._direction(both, f"{s}hip", f"{s}knee"),
+                    bend,
+                    self._sideways(both, s, "knee"),
+                    self._sideways(both, s, "ankle"),
+                    self._sideways(both, s, "toe"),
+                ],
+            )
             add(f"{s}knee", 2, knee, [self._direction(both, f"{s}knee", f"{s}ankle")])
             # Ankle to ball of the foot fixes pitch and yaw; roll is not observable
             # from two points, so it stays put (and planted feet are levelled).
-            add(f"{s}ankle", 3, self._joints(f"{s}ankle_"), [self._direction(both, f"{s}ankle", f"{s}toe")])
+            add(
+                f"{s}ankle",
+                3,
+                self._joints(f"{s}ankle_"),
+                [self._direction(both, f"{s}ankle", f"{s}toe"), self._level_foot_target(s)],
+            )
         return sorted(parts, key=lambda p: p.level)
+
+    def _sideways(self, both: set[str], s: str, point: str):
+        """A leg point's (knee, ankle or toe) sideways offset from its hip, as the source's scaled to this leg."""
+        hip, knee, ankle = f"{s}hip", f"{s}knee", f"{s}ankle"
+        if {hip, knee, ankle, f"{s}{point}", "right_hip", "left_hip"} <= both:
+            return Sideways(hip, f"{s}{point}", SIDEWAYS_WEIGHT), ("side", hip, knee, ankle, f"{s}{point}")
+        return None
+
+    def _level_foot_target(self, s: str):
+        """The foot unrolled (its sideways axis horizontal): the source's two foot points leave the roll free."""
+        foot = f"{s}foot"
+        if foot in self.rest_frames and f"{s}toe" in self.marks:
+            return LevelSideways(self._link_of(f"{s}toe"), self.rest_frames[foot], LEVEL_WEIGHT), ("level", s)
+        return None
 
     def _direction(self, both: set[str], start: str, end: str):
         if {start, end} <= both:
@@ -296,6 +375,12 @@ class Retargeter:
                 return v
             here = {n: f[t : t + 1] for n, f in src.items()}
             return self.calibrated(key, v[None], here, {n: f[t : t + 1] for n, f in src_frames.items()})[0]
+        if kind == "level":
+            return np.zeros(1)
+        if kind == "side":
+            here = {n: src[n][t : t + 1] for n in key[1:]}
+            pelvis = {"pelvis": src_frames["pelvis"][t : t + 1]}
+            return sideways_target(here, pelvis, key, self.rest_leg_length, self.stance_of(key))[0]
         if kind == "bend":
             a, b, c = (src[n][t] for n in key[1:])
             u1, u2 = b - a, c - b

@@ -11,8 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hotu_drake.retarget.frames import pelvis_frame
 from hotu_drake.retarget.tree import Pose, Tree, cross, rotation_vector
-from hotu_drake.rotations import rotation_log
+from hotu_drake.rotations import heading_rotation, rotation_log
 
 
 def _normalize(v: np.ndarray) -> tuple[np.ndarray, float]:
@@ -120,6 +121,68 @@ class Direction:
 
 
 @dataclass
+class Sideways:
+    """How far landmark `end` lies to the body's left of landmark `start`
+    should be the source's, scaled: a foot's offset from its own hip, so a
+    robot stands at its own width. Its target is the body's left axis and
+    the offset along it (4,), or (T, 4) over frames."""
+
+    start: str
+    end: str
+    weight: float = 1.0
+
+    def rows(self, marks: Landmarks, pose: Pose, joints: list[int], target: np.ndarray):
+        ps, js = marks.point_jacobian(pose, self.start, joints)
+        pe, je = marks.point_jacobian(pose, self.end, joints)
+        left, offset = target[:3], target[3]
+        return (left @ (je - js))[None], np.array([offset - left @ (pe - ps)]), self.weight
+
+    def rows_frames(self, marks: Landmarks, poses: Pose, joints: list[int], targets: np.ndarray):
+        ps, js = marks.point_jacobian_frames(poses, self.start, joints)
+        pe, je = marks.point_jacobian_frames(poses, self.end, joints)
+        left, offset = targets[:, :3], targets[:, 3]
+        jacobian = np.einsum("ti,tik->tk", left, je - js)[:, None, :]
+        error = (offset - np.einsum("ti,ti->t", left, pe - ps))[:, None]
+        return jacobian, error, np.full(len(error), self.weight)
+
+
+def sideways_offsets(points: dict[str, np.ndarray], end: str = "ankle") -> dict[str, np.ndarray]:
+    """Each leg's `end` landmark's offset (m) from its hip along the pelvis'
+    left axis (heading frame), per side (T,) (positive: to the body's left)."""
+    left = heading_rotation(pelvis_frame(points))[:, :, 1]
+    return {s: np.einsum("ti,ti->t", left, points[f"{s}_{end}"] - points[f"{s}_hip"]) for s in ("left", "right")}
+
+
+@dataclass(frozen=True)
+class SidewaysStance:
+    """Where a leg point's sideways target moves from, and its bounds: the
+    embodiment's own offset from its hip standing (m), the human's standing
+    straight (per unit of leg), and the offsets (m) that keep it clear of
+    the other leg (its side of the body's midline, less half the legs'
+    clearance)."""
+
+    standing: float
+    neutral: float
+    low: float = -np.inf
+    high: float = np.inf
+
+
+def sideways_target(src: dict, src_frames: dict, key: tuple, leg: float, stance: SidewaysStance) -> np.ndarray:
+    """A `Sideways` target's values over the source's frames (T, 4): the
+    source pelvis' left axis (heading frame), and the offset of the
+    embodiment's leg point from its hip along it: its own `stance.standing`
+    offset, moved by the source's offset away from the human standing
+    straight, scaled from the source's leg to `leg` (the embodiment's), and
+    kept within the stance's bounds. `key`: ("side", hip, knee, ankle, point)."""
+    _, hip, knee, ankle, point = key
+    left = heading_rotation(src_frames["pelvis"])[:, :, 1]
+    length = np.linalg.norm(src[knee] - src[hip], axis=-1) + np.linalg.norm(src[ankle] - src[knee], axis=-1)
+    offset = np.einsum("ti,ti->t", left, src[point] - src[hip]) / np.maximum(length, 1e-6)
+    target = np.clip(stance.standing + leg * (offset - stance.neutral), stance.low, stance.high)
+    return np.column_stack((left, target))
+
+
+@dataclass
 class BendPlane:
     """A hinge's axis (elbow, knee) should be normal to the source's bend plane.
 
@@ -169,6 +232,31 @@ class Orientation:
         desired = targets @ self.rest_frame.T
         error = rotation_log(desired @ np.swapaxes(poses.rotations[:, self.link], 1, 2))
         return marks.rotation_jacobian_frames(self.link, poses, joints), error, np.full(len(error), self.weight)
+
+
+@dataclass
+class LevelSideways:
+    """A link's sideways axis (its body frame's y, the frame at rest given by
+    `rest_frame`) should stay horizontal: a foot not rolled. Where the
+    source's two foot points leave the roll free, an ankle would otherwise
+    roll the foot to point its toe, and a rolled swing foot hits the other
+    leg. Its target is 0 (no tilt)."""
+
+    link: int
+    rest_frame: np.ndarray
+    weight: float = 1.0
+
+    def rows(self, marks: Landmarks, pose: Pose, joints: list[int], target):
+        side = pose.rotations[self.link] @ self.rest_frame[:, 1]
+        tilt = cross(side, np.array([0.0, 0.0, 1.0]))
+        jacobian = tilt @ marks.rotation_jacobian(self.link, pose, joints)
+        return jacobian[None], np.array([-side[2]]), self.weight
+
+    def rows_frames(self, marks: Landmarks, poses: Pose, joints: list[int], targets):
+        side = poses.rotations[:, self.link] @ self.rest_frame[:, 1]
+        tilt = np.cross(side, np.array([0.0, 0.0, 1.0]))
+        jacobian = np.einsum("ti,tik->tk", tilt, marks.rotation_jacobian_frames(self.link, poses, joints))
+        return jacobian[:, None, :], -side[:, 2:3], np.full(len(side), self.weight)
 
 
 @dataclass
