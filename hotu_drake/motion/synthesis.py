@@ -434,6 +434,36 @@ def pelvis_over_feet(
     return xy, heading
 
 
+def balanced_pelvis_path(
+    feet: dict[str, tuple[np.ndarray, np.ndarray]], body: Body, fps: float, heading: np.ndarray
+) -> np.ndarray:
+    """Planar pelvis path (T, 2) that keeps the centre of pressure on the
+    feet: the centre of pressure planned over the planted feet (the
+    mid-foot of the one planted, between both when both are, shifted
+    smoothly at each change), and the centre of mass that puts it there by
+    Drake's `ZmpPlanner` (a linear inverted pendulum at the standing pelvis
+    height, with its preview of the whole motion, from rest). The pelvis
+    is taken to carry the centre of mass, as a standing person's does."""
+    from pydrake.planning import ZmpPlanner
+    from pydrake.trajectories import PiecewisePolynomial
+
+    forward = np.column_stack([np.cos(heading), np.sin(heading)])
+    middle = {s: feet[s][0][:, :2] + 0.04 * body.scale * forward for s in SIDES}  # the mid-foot, ahead of the ankle
+    planted = np.column_stack([feet[s][0][:, 2] <= body.sole + 0.004 for s in SIDES]).astype(float)
+    planted[planted.sum(axis=1) == 0] = 1.0  # airborne: between the feet
+    weights = smooth(planted, fps, 0.05)
+    weights /= weights.sum(axis=1, keepdims=True)
+    pressure = sum(weights[:, i, None] * middle[s] for i, s in enumerate(SIDES))
+    times = np.arange(len(pressure)) / fps
+    height = body.leg_length(0.0)  # above the soles, to the hips
+    planner = ZmpPlanner()
+    start = np.concatenate([pressure[0], np.zeros(2)])
+    reference = PiecewisePolynomial.FirstOrderHold(times, pressure.T)
+    planner.Plan(reference, start, height, GRAVITY, np.eye(2), 1e-4 * np.eye(2))
+    path = planner.get_nominal_com()
+    return np.array([path.value(t)[:, 0] for t in times])
+
+
 def reachable_height(
     xy: np.ndarray, pelvis_rot: np.ndarray, feet: dict, body: Body, knee: float, fps: float
 ) -> np.ndarray:

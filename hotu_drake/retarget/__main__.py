@@ -155,7 +155,7 @@ def main(argv: list[str] | None = None) -> int:
             for robot in robots:
                 stage = results[robot]
                 emb = embodiment.load(robot, "full" if has_fingers(stage.clip) else "none")
-                figures[stem][robot] = report(source, stage.clip, emb, stage.seconds)
+                figures[stem][robot] = report(source, stage.clip, emb, stage.seconds, stage.margins)
         replays.append((stem, source, results))
     if replays:  # a run whose every input was refused writes nothing, not even the report of its errors
         _write(args, out, robots, figures, failures, replays)

@@ -38,11 +38,16 @@ import numpy as np
 from pydrake.solvers import MathematicalProgram, OsqpSolver, SolverOptions
 
 from hotu_drake.embodiment.spec import SIDES
+from hotu_drake.retarget.balance import PASSES, centre_of_mass_shift, desired_pressure, smooth
 from hotu_drake.retarget.part_ik import FINGER_LEVEL, SHAPE_TOLERANCE, TRUST_REGION
 from hotu_drake.retarget.targets import sideways_target
 from hotu_drake.retarget.tree import Pose
 from hotu_drake.rotations import heading_rotation, normalize
 
+# s: the window over which the root's drift correction (planted feet kept where they landed) is averaged.
+DRIFT_SMOOTHING = 0.2
+# Relinearisations of the legs' program after the body moves (the balance pass).
+MOVE_ITERATIONS = 2
 # The legs' program: weights of a planted ankle's distance (m) from its anchor
 # and of its sole's tilt (rad), against the legs' direction targets (1 each).
 ANCHOR_WEIGHT = 100.0
@@ -410,7 +415,7 @@ class ClipSolver:
         return np.maximum.accumulate(values + runs * span) - runs * span
 
     def plant_feet(
-        self, q: np.ndarray, rotations: np.ndarray, positions: np.ndarray, contacts: dict, fixed: dict
+        self, q: np.ndarray, rotations: np.ndarray, positions: np.ndarray, contacts: dict, fixed: dict, fps: float
     ) -> np.ndarray:
         """Root positions (T, 3) that keep planted feet on the floor and where
         they landed; the leg joints of q are corrected in place."""
@@ -437,10 +442,33 @@ class ClipSolver:
             if planted:  # the first planted foot (left before right) carries the body
                 drift = current[planted[0]] - ankles[planted[0]][t]
                 shift[t, :2] = drift[:2]
+        # The drift taken out smoothly: frame-by-frame corrections would shake the body (its centre of mass
+        # accelerating at 5-9 m/s^2 in the library walk); the legs' program keeps the planted feet on their anchors.
+        shift = smooth(shift, max(1, round(DRIFT_SMOOTHING * fps)))
         positions += shift
         self._lock_legs(q, rotations, positions, anchors, fixed, poses.translated(shift[:, None]))
         np.clip(q, r.embodiment.position_lower, r.embodiment.position_upper, out=q)  # before the soles' last lift
         # The levelled soles: planted ones back on the floor, none below it.
+        positions[:, 2] += self._heights(self._lowest(self._poses(q, rotations, positions)), contacts)
+        return positions
+
+    def move_body(
+        self, q: np.ndarray, rotations: np.ndarray, positions: np.ndarray, contacts: dict, fixed: dict, shift
+    ) -> np.ndarray:
+        """Root positions moved by `shift` (T, 3) with the planted feet kept
+        where they are: the legs' program solves the legs again, each
+        planted ankle anchored where it was; then the soles' heights."""
+        r = self.r
+        poses = self._poses(q, rotations, positions)
+        anchors = {}
+        for side in r._lock:
+            ankle = r.marks.point_jacobian_frames(poses, f"{side}_ankle", [])[0]
+            planted = contacts.get(side, np.zeros(self.frames, bool))
+            anchors[side] = np.where(planted[:, None], ankle, np.nan)
+        positions = positions + shift
+        for _ in range(MOVE_ITERATIONS):
+            self._lock_legs(q, rotations, positions, anchors, fixed, self._poses(q, rotations, positions))
+        np.clip(q, r.embodiment.position_lower, r.embodiment.position_upper, out=q)
         positions[:, 2] += self._heights(self._lowest(self._poses(q, rotations, positions)), contacts)
         return positions
 
@@ -469,6 +497,33 @@ class ClipSolver:
                 blocks.append((joints, rows))
             if self._step(program, blocks, q) < r.options.tolerance:
                 break
+
+
+def balance(
+    solver: ClipSolver, q, rotations, positions, contacts: dict, fixed: dict, fps: float
+) -> tuple[np.ndarray, dict]:
+    """The balance pass: the body shifted so that the clip's centre of
+    pressure, with the robot's own mass distribution, comes
+    `balance.MARGIN` inside its planted soles' support
+    (`balance.desired_pressure`), by the centre-of-mass shift Drake's
+    `ZmpPlanner` gives for it, `balance.PASSES` times over (each on the
+    body as the last left it); then the legs' program puts the planted
+    feet back where they were. Returns the root positions and the support
+    margins (m, per frame) before and after."""
+    dynamics = solver.r.balance
+    poses = dynamics.poses(q, rotations, positions)
+    com, pressure = dynamics.centroidal(poses, fps)
+    margins = {"before": dynamics.support_margin(poses, pressure, contacts)}
+    shift = np.zeros((len(q), 3))
+    for _ in range(PASSES):  # the feet move with the body here: their support is where they will be put back
+        moved = poses.translated(shift[:, None])
+        com, pressure = dynamics.centroidal(moved, fps)
+        desired = desired_pressure(dynamics, poses, pressure, contacts)
+        shift[:, :2] += centre_of_mass_shift(com, pressure, desired, fps)
+    positions = solver.move_body(q, rotations, positions, contacts, fixed, shift)
+    poses = dynamics.poses(q, rotations, positions)
+    margins["after"] = dynamics.support_margin(poses, dynamics.centroidal(poses, fps)[1], contacts)
+    return positions, margins
 
 
 def _take(fixed: dict, index: np.ndarray) -> dict:
@@ -516,7 +571,7 @@ def shape_runs(shapes: np.ndarray, window: int = 64) -> np.ndarray:
 
 
 def retarget_clip(
-    retargeter, src: dict, src_frames: dict, contacts: dict, ratio: float
+    retargeter, src: dict, src_frames: dict, contacts: dict, ratio: float, fps: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Joint positions (T, n), root rotations (T, 3, 3) and root positions
     (T, 3) of a whole clip, by the `Retargeter` `retargeter`.
@@ -525,7 +580,9 @@ def retarget_clip(
     frame from the standing pose; the joint paths interpolated from them
     (cubic, `hermite`) start the relinearisations over all frames (the
     fingers' only if their coarse solve had not settled); then the legs'
-    program solves the legs and plants the feet.
+    program solves the legs and plants the feet; last, the balance pass
+    (`balance`) shifts the body over its feet (`retargeter.margins`: the
+    support margins before and after).
     """
     r, options = retargeter, retargeter.options
     lower, upper = r.embodiment.position_lower, r.embodiment.position_upper
@@ -560,7 +617,10 @@ def retarget_clip(
     else:
         solver.solve_parts(q, rotations, positions, fixed, options.clip_iterations)
         solver.solve_fingers(q, rotations, positions, fixed, options.clip_iterations)
+    r.margins = {}
     if r.legged:
-        positions = solver.plant_feet(q, rotations, positions, contacts, fixed)
+        positions = solver.plant_feet(q, rotations, positions, contacts, fixed, fps)
+        if options.balance and r.spec.floating_base and solver.plants_feet and contacts:
+            positions, r.margins = balance(solver, q, rotations, positions, contacts, fixed, fps)
     np.clip(q, lower, upper, out=q)
     return q, rotations, positions

@@ -14,6 +14,7 @@ from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import FINGER_POINTS, body_height, landmarks_of
 from hotu_drake.motion.udh_skeleton import points_on_clip
 from hotu_drake.retarget import frames
+from hotu_drake.retarget.balance import ClipBalance, TorqueDemand
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
 from hotu_drake.retarget.neutral import calibrate
 from hotu_drake.retarget.retargeter import Retargeter, foot_contacts_of, whole_finger_points
@@ -58,8 +59,48 @@ def _angles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.degrees(np.arccos(np.clip(np.sum(_unit(a) * _unit(b), axis=-1), -1.0, 1.0)))
 
 
-def report(source: MotionClip, result: MotionClip, emb: embodiments.Embodiment, seconds: float) -> dict:
-    """The per-clip, per-robot figures of `--report`."""
+def _margin_figures(margins: np.ndarray) -> dict:
+    supported = margins[~np.isnan(margins)]
+    if not supported.size:
+        return {"inside_share": None, "median_m": None, "least_m": None}
+    return {
+        "inside_share": round(float(np.mean(supported >= 0.0)), 4),
+        "median_m": round(float(np.median(supported)), 4),
+        "least_m": round(float(supported.min()), 4),
+    }
+
+
+def balance_figures(emb: embodiments.Embodiment, clip: MotionClip, contacts: dict, before=None) -> dict:
+    """The clip's centre-of-pressure margin inside its planted soles (share of
+    the frames with a foot down where it is inside, median, least; before the
+    balance pass too when given) and the torques it asks of each joint
+    against its limit (share of frames over any limit; each joint over its
+    limit: on what share of frames, and by how much at most)."""
+    dynamics = ClipBalance(emb)
+    poses = dynamics.poses(clip.joint_positions, quat_to_matrix(clip.root_quaternion), clip.root_position)
+    _, pressure = dynamics.centroidal(poses, clip.fps)
+    margin = {"after": _margin_figures(dynamics.support_margin(poses, pressure, contacts))}
+    if before is not None:
+        margin = {"before": _margin_figures(np.asarray(before))} | margin
+    ratios = TorqueDemand(emb).ratios(clip, contacts)
+    over = ratios > 1.0
+    joints = {
+        name: {"share": round(float(over[:, j].mean()), 4), "most": round(float(ratios[:, j].max()), 2)}
+        for j, name in enumerate(emb.joint_names)
+        if over[:, j].any()
+    }
+    return {
+        "centre_of_pressure_margin": margin,
+        "torque_over_limit_share": round(float(over.any(axis=1).mean()), 4),
+        "torque_over_limit": dict(sorted(joints.items(), key=lambda item: -item[1]["share"])),
+    }
+
+
+def report(
+    source: MotionClip, result: MotionClip, emb: embodiments.Embodiment, seconds: float, margins: dict | None = None
+) -> dict:
+    """The per-clip, per-robot figures of `--report` (`margins`: the balance
+    pass's support margins before it, per frame, when it ran)."""
     src = landmarks_of(source)
     dst = clip_landmarks(emb, result)
     frames_count = result.num_frames
@@ -151,6 +192,9 @@ def report(source: MotionClip, result: MotionClip, emb: embodiments.Embodiment, 
         depths = leg_contacts(emb).depths(result)
         out["leg_penetration_m"] = round(float(depths.max()), 4)
         out["leg_penetration_share"] = round(float(np.mean(depths > LEG_PENETRATION_ALLOWED)), 4)
+        if emb.floating_base:
+            planted = foot_contacts_of(result, result.num_frames) or contacts
+            out |= balance_figures(emb, result, planted, (margins or {}).get("before"))
     else:
         out["foot_skate_m_per_s"] = None
         out["foot_penetration_m"] = None

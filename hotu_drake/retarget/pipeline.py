@@ -1,6 +1,6 @@
 """Human -> UDH -> robots, as the method does it."""
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 
 from hotu_drake import embodiment
@@ -21,10 +21,13 @@ def has_fingers(clip: MotionClip) -> bool:
 
 @dataclass
 class Stage:
-    """One retargeting result and how long its solve took."""
+    """One retargeting result, how long its solve took, and the support
+    margins of its centre of pressure before and after the balance pass
+    (per frame; none for a robot without legs)."""
 
     clip: MotionClip
     seconds: float
+    margins: dict = field(default_factory=dict)
 
 
 def to_udh(source: MotionClip, hands: str = "full", options: RetargetOptions | None = None) -> Stage:
@@ -36,8 +39,9 @@ def to_udh(source: MotionClip, hands: str = "full", options: RetargetOptions | N
         return Stage(source, 0.0)
     udh = embodiment.load("udh", hands)
     start = time.perf_counter()
-    clip = Retargeter(udh, set(source.key_body_names), options).retarget(source)
-    return Stage(clip, time.perf_counter() - start)
+    retargeter = Retargeter(udh, set(source.key_body_names), options)
+    clip = retargeter.retarget(source)
+    return Stage(clip, time.perf_counter() - start, retargeter.margins)
 
 
 def to_robot(udh_clip: MotionClip, robot: str, hands: str = "full", options: RetargetOptions | None = None) -> Stage:
@@ -48,8 +52,9 @@ def to_robot(udh_clip: MotionClip, robot: str, hands: str = "full", options: Ret
     landmarks = udh_landmarks(udh, udh_clip)
     target = embodiment.load(robot, hands)
     start = time.perf_counter()
-    clip = Retargeter(target, set(landmarks), options).retarget_landmarks(landmarks, udh_clip.fps, udh_clip)
-    return Stage(clip, time.perf_counter() - start)
+    retargeter = Retargeter(target, set(landmarks), options)
+    clip = retargeter.retarget_landmarks(landmarks, udh_clip.fps, udh_clip)
+    return Stage(clip, time.perf_counter() - start, retargeter.margins)
 
 
 @lru_cache(maxsize=32)

@@ -25,6 +25,7 @@ from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import landmarks_of
 from hotu_drake.objects import scale_object_poses
 from hotu_drake.retarget import frames
+from hotu_drake.retarget.balance import ClipBalance
 from hotu_drake.retarget.clip_programs import retarget_clip
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
 from hotu_drake.retarget.neutral import calibrate, neutral_calibration
@@ -81,6 +82,8 @@ class RetargetOptions:
     regularization: float = 1e-3
     smoothness: float = 1e-2
     lock_feet: bool = True
+    # Whole clip: shift the body so the centre of pressure stays inside the planted soles (`clip_programs.balance`).
+    balance: bool = True
     # Match limb directions relative to the embodiment's neutral pose (`neutral_calibration`).
     calibrate: bool = True
 
@@ -128,6 +131,8 @@ class Retargeter:
         self.legged = "left_ankle" in self.marks and "left_ankle" in source_landmarks
         self.parts = self._build_parts(set(source_landmarks))
         self._lock = self._build_leg_locks() if self.legged else {}
+        self.balance = ClipBalance(embodiment) if self.legged else None
+        self.margins: dict[str, np.ndarray] = {}  # the last whole clip's support margins, before and after balancing
         self.base = [self.tree.joint_index[n] for n in embodiment.base_joints]
         fingers = set(embodiment.finger_joints)
         body = [i for i, n in enumerate(self.tree.joint_names) if n not in fingers]
@@ -451,7 +456,7 @@ class Retargeter:
             contacts = foot_contacts_of(source, frames_count) or detect_foot_contacts(src, fps)
         if self.options.whole_clip:
             ratio = self.scale_ratio(src)
-            q, rotations, positions = retarget_clip(self, src, src_frames, contacts, ratio)
+            q, rotations, positions = retarget_clip(self, src, src_frames, contacts, ratio, fps)
             return self._clip(q, rotations, positions, fps, source, contacts, ratio)
         stream = RetargetStream(self, fps, src)
         out_q = np.zeros((frames_count, len(self.tree.joint_names)))

@@ -27,14 +27,14 @@ from hotu_drake.rotations import rot_y, rot_z
 
 
 def walk(sc: Scene) -> Plan:
-    """Straight walk: alternating steps (six in 4.4 s), pelvis bobbing, arms swinging."""
+    """Straight walk: alternating steps (six in 4.4 s), the pelvis path planned for balance, arms swinging."""
     step = 0.45 * sc.s * sc.jitter(0.06)
     step_time = 0.55 * sc.jitter(0.05)
     count = max(4, int((sc.duration - 1.0) / step_time + 0.22))
     path = np.array([[0.0, 0.0, 0.0], [(count - 1) * step, 0.0, 0.0]])
     steps, _ = path_steps(path, "right", 0.4, step_time, 0.78 * step_time, count, sc.width)
     feet = foot_tracks(sc.t, sc.body, stand(sc), steps)
-    base = plan_base(sc, feet, sway=0.025, sigma=0.4 * step_time, pitch=0.04)
+    base = plan_base(sc, feet, sigma=0.4 * step_time, pitch=0.04, balanced=True)
     arm_swing(base, step)
     set_joints(base.plan, neck_y=-0.04)
     return base.plan

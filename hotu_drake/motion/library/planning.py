@@ -13,6 +13,7 @@ from hotu_drake.motion.synthesis import (
     Body,
     HandTarget,
     Plan,
+    balanced_pelvis_path,
     finger_joints,
     hand_rotation,
     pelvis_over_feet,
@@ -92,12 +93,18 @@ def plan_base(
     roll: np.ndarray | float = 0.0,
     sway: float = 0.0,
     sigma: float = 0.15,
+    balanced: bool = False,
 ) -> Base:
     """Pelvis over the feet: `drop` metres below the highest comfortable
     height, `shift` (T, 2) in the heading frame, tilted by `pitch`, `roll`
-    and turned by `twist` relative to the heading."""
+    and turned by `twist` relative to the heading. `balanced`: its planar
+    path planned to keep the centre of pressure on the feet
+    (`balanced_pelvis_path`, for locomotion) instead of low-passed over
+    them with a fixed `sway`."""
     n = len(sc.t)
     xy, heading = pelvis_over_feet(feet, sc.body, sc.fps, sigma, sway * sc.s)
+    if balanced:
+        xy = balanced_pelvis_path(feet, sc.body, sc.fps, heading)
     if shift is not None:
         xy = xy + heading_frame(heading, np.column_stack([shift, np.zeros(n)]))[:, :2]
     rot = rot_z(heading + twist) @ rot_y(np.broadcast_to(pitch, n)) @ rot_x(np.broadcast_to(roll, n))

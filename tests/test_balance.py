@@ -1,0 +1,105 @@
+"""Clips a robot could balance on: its centre of pressure against its planted
+soles, the balance pass that brings it inside, and the torques it asks."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from hotu_drake import embodiment
+from hotu_drake.motion.clip import MotionClip
+from hotu_drake.motion.library import generate
+from hotu_drake.retarget.balance import ClipBalance, TorqueDemand, desired_pressure, signed_distances
+from hotu_drake.retarget.metrics import report
+from hotu_drake.retarget.pipeline import to_robot, to_udh
+from hotu_drake.retarget.retargeter import RetargetOptions, foot_contacts_of
+from hotu_drake.rotations import quat_to_matrix
+
+
+def test_signed_distance_to_a_support_polygon():
+    square = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [9, 9]], float)[None].repeat(5, 0)
+    valid = np.array([[True] * 4 + [False]] * 5)  # the fifth point is not down
+    p = np.array([[0.5, 0.5], [0.9, 0.5], [1.5, 0.5], [2.0, 2.0], [0.5, 0.0]])
+    np.testing.assert_allclose(signed_distances(square, valid, p), [0.5, 0.1, -0.5, -np.sqrt(2), 0.0], atol=1e-12)
+    line = np.array([[[0, 0], [1, 0]]], float)  # a line contact has no inside
+    assert signed_distances(line, np.array([[True, True]]), np.array([[0.5, 0.2]]))[0] == pytest.approx(-0.2)
+    assert np.isnan(signed_distances(line, np.array([[False, False]]), np.array([[0.5, 0.2]]))[0])
+
+
+def _standing(robot: str, frames: int = 30, lean: float = 0.0) -> MotionClip:
+    """The robot standing still on both feet, its root `lean` m ahead of them."""
+    emb = embodiment.load(robot, "none")
+    q = np.tile(emb.standing_pose, (frames, 1))
+    root = np.tile([lean, 0.0, emb.standing_root_height], (frames, 1))
+    quaternions = np.tile([1.0, 0.0, 0.0, 0.0], (frames, 1))
+    contacts = np.ones((frames, 2))
+    return MotionClip.from_positions(
+        robot, "standing", 30.0, list(emb.joint_names), q, root, quaternions,
+        contact_names=["left_foot", "right_foot"], contacts=contacts,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("robot", ["h1", "naviai", "walker", "bruce", "udh"])
+def test_standing_still_is_balanced_and_leaning_far_out_is_not(robot):
+    emb = embodiment.load(robot, "none")
+    dynamics = ClipBalance(emb)
+    for lean, inside in ((0.0, True), (0.4, False)):
+        clip = _standing(robot, lean=lean)
+        poses = dynamics.poses(clip.joint_positions, quat_to_matrix(clip.root_quaternion), clip.root_position)
+        # A standing robot's feet are where its root puts them: move the feet back under the old spot.
+        com, pressure = dynamics.centroidal(poses, clip.fps)
+        support = dynamics.support_margin(poses.translated(np.array([-lean, 0.0, 0.0])[None, None]), pressure, {
+            "left": np.ones(clip.num_frames, bool), "right": np.ones(clip.num_frames, bool)})  # fmt: skip
+        np.testing.assert_allclose(pressure, com[:, :2], atol=1e-6)  # at rest: right under the centre of mass
+        assert bool(np.all(support >= 0.0)) == inside, (robot, lean, support.min())
+
+
+def test_a_centre_of_pressure_outside_the_feet_is_caught_by_the_report_and_brought_back():
+    h1 = embodiment.load("h1", "none")
+    dynamics = ClipBalance(h1)
+    clip = _standing("h1")
+    poses = dynamics.poses(clip.joint_positions, quat_to_matrix(clip.root_quaternion), clip.root_position)
+    planted = {"left": np.ones(clip.num_frames, bool), "right": np.ones(clip.num_frames, bool)}
+    outside = np.tile([0.25, 0.0], (clip.num_frames, 1))  # ahead of the toes
+    assert np.all(dynamics.support_margin(poses, outside, planted) < -0.05)
+    brought = desired_pressure(dynamics, poses, outside, planted)
+    margin = dynamics.support_margin(poses, brought, planted)
+    assert np.all(margin >= 0.0149) and np.all(brought[:, 0] < 0.25)  # 1.5 cm inside, pushed back from where it was
+    far = desired_pressure(dynamics, poses, np.tile([1.0, 0.0], (clip.num_frames, 1)), planted)
+    np.testing.assert_allclose(far[:, 0], 0.85)  # a metre out is not the pendulum's to fix: moved by 15 cm at most
+    # The report: a clip whose body lurches forward over still feet.
+    ahead = np.zeros((30, 3))
+    ahead[:, 0] = 0.002 * np.arange(30) ** 2  # accelerating forward at 3.6 m/s^2
+    lurch = dataclasses.replace(clip, root_position=clip.root_position + ahead)
+    figures = report(generate("squat").slice(0, 30), lurch, h1, 1.0)
+    assert figures["centre_of_pressure_margin"]["after"]["inside_share"] < 0.5
+
+
+def test_the_balance_pass_brings_the_walk_over_the_feet():
+    walk = to_udh(generate("walk"), "none").clip
+    for robot in ("h1", "walker"):
+        stage = to_robot(walk, robot, "none")
+        before, after = (stage.margins[k][~np.isnan(stage.margins[k])] for k in ("before", "after"))
+        assert np.mean(after >= 0) > 0.75 and np.mean(after >= 0) > np.mean(before >= 0) + 0.3, robot
+        unbalanced = to_robot(walk, robot, "none", RetargetOptions(balance=False))
+        assert unbalanced.margins == {}
+
+
+def test_torques_of_standing_still_are_within_the_limits_and_a_crouch_asks_more_of_the_knees():
+    for robot in ("h1", "naviai", "walker", "bruce"):
+        clip = _standing(robot)
+        ratios = TorqueDemand(embodiment.load(robot, "none")).ratios(clip, foot_contacts_of(clip, clip.num_frames))
+        assert ratios.max() < 1.0, robot
+    h1 = embodiment.load("h1", "none")
+    demand = TorqueDemand(h1)
+    straight = demand.ratios(_standing("h1"), foot_contacts_of(_standing("h1"), 30))
+    crouch = _standing("h1")
+    q = crouch.joint_positions.copy()
+    for side in ("left", "right"):  # knees bent 1 rad, the thighs and shins keeping the feet flat
+        q[:, h1.joint_names.index(f"{side}_hip_y")] -= 0.5
+        q[:, h1.joint_names.index(f"{side}_knee_y")] += 1.0
+        q[:, h1.joint_names.index(f"{side}_ankle_y")] -= 0.5
+    crouch = dataclasses.replace(crouch, joint_positions=q)
+    bent = demand.ratios(crouch, foot_contacts_of(crouch, 30))
+    knee = h1.joint_names.index("left_knee_y")
+    assert bent[:, knee].mean() > 3 * straight[:, knee].mean()
