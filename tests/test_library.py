@@ -63,6 +63,8 @@ def test_vocabulary():
     assert MOTIONS == (
         "walk", "jump", "squat", "leg_stretch", "boxing", "finger_motions", "handshake",
         "kungfu", "wave", "slap", "thumbs_up", "box_carry", "drill_grasp",
+        "walk_fast", "walk_turn_left", "walk_turn_right", "turn_in_place_left", "turn_in_place_right",
+        "sidestep_left", "sidestep_right", "walk_backward", "start_stop",
     )  # fmt: skip
     with pytest.raises(ValueError, match="unknown motion"):
         generate_udh("moonwalk")

@@ -458,7 +458,8 @@ def balanced_pelvis_path(
     height = body.leg_length(0.0)  # above the soles, to the hips
     planner = ZmpPlanner()
     start = np.concatenate([pressure[0], np.zeros(2)])
-    reference = PiecewisePolynomial.FirstOrderHold(times, pressure.T)
+    # Held for a second at its end: the planner wants a reference that ends at rest.
+    reference = PiecewisePolynomial.FirstOrderHold(np.append(times, times[-1] + 1.0), np.c_[pressure.T, pressure[-1]])
     planner.Plan(reference, start, height, GRAVITY, np.eye(2), 1e-4 * np.eye(2))
     path = planner.get_nominal_com()
     return np.array([path.value(t)[:, 0] for t in times])

@@ -196,7 +196,8 @@ def centre_of_mass_shift(com: np.ndarray, pressure: np.ndarray, desired: np.ndar
     if not np.any(np.abs(change) > 1e-9):
         return np.zeros((len(com), 2))
     planner = ZmpPlanner()
-    reference = PiecewisePolynomial.FirstOrderHold(times, change)
+    # Held for a second at its end: the planner wants a reference that ends at rest.
+    reference = PiecewisePolynomial.FirstOrderHold(np.append(times, times[-1] + 1.0), np.c_[change, change[:, -1]])
     planner.Plan(reference, np.zeros(4), float(np.mean(com[:, 2])), GRAVITY, np.eye(2), TRACKING * np.eye(2))
     trajectory = planner.get_nominal_com()
     return np.array([trajectory.value(t)[:, 0] for t in times])

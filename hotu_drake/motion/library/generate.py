@@ -21,6 +21,17 @@ from hotu_drake.motion.library.object_tasks import box_carry, drill_grasp
 from hotu_drake.motion.library.planning import (
     Scene,
 )
+from hotu_drake.motion.library.steering import (
+    sidestep_left,
+    sidestep_right,
+    start_stop,
+    turn_in_place_left,
+    turn_in_place_right,
+    walk_backward,
+    walk_fast,
+    walk_turn_left,
+    walk_turn_right,
+)
 from hotu_drake.motion.synthesis import (
     Body,
     Plan,
@@ -43,6 +54,16 @@ MOTIONS: tuple[str, ...] = (
     "thumbs_up",
     "box_carry",
     "drill_grasp",
+    # The steering vocabulary (`steering`).
+    "walk_fast",
+    "walk_turn_left",
+    "walk_turn_right",
+    "turn_in_place_left",
+    "turn_in_place_right",
+    "sidestep_left",
+    "sidestep_right",
+    "walk_backward",
+    "start_stop",
 )
 # Nominal durations (s); `duration=` stretches or shortens a motion.
 DURATIONS: dict[str, float] = {
@@ -59,6 +80,15 @@ DURATIONS: dict[str, float] = {
     "thumbs_up": 3.6,
     "box_carry": 11.8,
     "drill_grasp": 5.4,
+    "walk_fast": 4.0,
+    "walk_turn_left": 4.6,
+    "walk_turn_right": 4.6,
+    "turn_in_place_left": 4.0,
+    "turn_in_place_right": 4.0,
+    "sidestep_left": 6.0,
+    "sidestep_right": 6.0,
+    "walk_backward": 4.4,
+    "start_stop": 5.2,
 }
 CONTACT_HEIGHT = 0.01  # m: a sole this close to the floor ...
 CONTACT_SPEED = 0.1  # m/s: ... and moving this slowly is in contact
@@ -83,6 +113,15 @@ _PLANNERS: dict[str, Callable[[Scene], Plan]] = {
     "thumbs_up": thumbs_up,
     "box_carry": box_carry,
     "drill_grasp": drill_grasp,
+    "walk_fast": walk_fast,
+    "walk_turn_left": walk_turn_left,
+    "walk_turn_right": walk_turn_right,
+    "turn_in_place_left": turn_in_place_left,
+    "turn_in_place_right": turn_in_place_right,
+    "sidestep_left": sidestep_left,
+    "sidestep_right": sidestep_right,
+    "walk_backward": walk_backward,
+    "start_stop": start_stop,
 }
 
 

@@ -1,0 +1,146 @@
+"""The steering vocabulary: what a controller needs to go anywhere.
+
+A fast walk, walks turning a quarter turn left and right over a few steps,
+quarter turns in place, sidesteps both ways, a walk backwards, and a
+start from and stop to standing. Every one places its footsteps and plans
+its pelvis path to keep the centre of pressure on the feet
+(`plan_base(..., balanced=True)`, Drake's `ZmpPlanner`), as the walk does.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hotu_drake.motion.library.planning import Scene, arm_swing, plan_base, set_joints, stand
+from hotu_drake.motion.synthesis import Plan, Step, foot_tracks, path_steps, stance_pose
+
+QUARTER = np.pi / 2
+
+
+def _walk_along(sc: Scene, path: np.ndarray, step: float, step_time: float, count: int, first: str = "right") -> Plan:
+    """Steps along a planar path of (x, y, heading) poses from standing, the pelvis balanced over them."""
+    steps, _ = path_steps(path, first, 0.4, step_time, 0.78 * step_time, count, sc.width)
+    return _stepping(sc, steps, step, step_time)
+
+
+def _stepping(sc: Scene, steps: list[Step], step: float, step_time: float, swing: bool = True) -> Plan:
+    feet = foot_tracks(sc.t, sc.body, stand(sc), steps)
+    base = plan_base(sc, feet, sigma=0.4 * step_time, pitch=0.04, balanced=True)
+    if swing:
+        arm_swing(base, step)
+    set_joints(base.plan, neck_y=-0.04)
+    return base.plan
+
+
+def walk_fast(sc: Scene) -> Plan:
+    """A straight walk with longer, quicker steps (about 1.3 m/s for a 1.75 m person)."""
+    step = 0.6 * sc.s * sc.jitter(0.05)
+    step_time = 0.45 * sc.jitter(0.05)
+    count = max(4, int((sc.duration - 1.0) / step_time + 0.22))
+    return _walk_along(sc, np.array([[0.0, 0.0, 0.0], [(count - 1) * step, 0.0, 0.0]]), step, step_time, count)
+
+
+def _arc(radius: float, turn: float, points: int = 24) -> np.ndarray:
+    """Poses (x, y, heading) along a circular arc from the origin facing +x, turning by `turn` (rad)."""
+    angle = np.linspace(0.0, turn, points)
+    sign = np.sign(turn)
+    return np.column_stack([radius * np.sin(np.abs(angle)), sign * radius * (1.0 - np.cos(angle)), angle])
+
+
+def _walk_turning(sc: Scene, turn: float) -> Plan:
+    step = 0.4 * sc.s * sc.jitter(0.05)
+    step_time = 0.55 * sc.jitter(0.05)
+    radius = 1.0 * sc.s
+    count = max(4, int(round(abs(turn) * radius / step)) + 1)
+    first = "right" if turn > 0 else "left"  # the outer foot leads into a turn
+    return _walk_along(sc, _arc(radius, turn), step, step_time, count, first)
+
+
+def walk_turn_left(sc: Scene) -> Plan:
+    """A walk turning a quarter turn to the left on a 1 m radius (about five steps)."""
+    return _walk_turning(sc, QUARTER)
+
+
+def walk_turn_right(sc: Scene) -> Plan:
+    """A walk turning a quarter turn to the right on a 1 m radius."""
+    return _walk_turning(sc, -QUARTER)
+
+
+def _turn_in_place(sc: Scene, turn: float) -> Plan:
+    """Steps about the spot between the feet, a quarter turn in four steps:
+    the foot on the side of the turn opens, the other closes, and so on."""
+    step_time = 0.6 * sc.jitter(0.05)
+    count = 4
+    side = "left" if turn > 0 else "right"
+    steps = []
+    for i in range(count):
+        heading = turn * (i + 1) / count if i < count - 1 else turn
+        start = 0.4 + i * step_time
+        pose = stance_pose(0.0, 0.0, heading, sc.width)[side]
+        steps.append(Step(side, start, start + 0.78 * step_time, pose, height=0.05))
+        side = "right" if side == "left" else "left"
+    steps.append(
+        Step(
+            side,
+            0.4 + count * step_time,
+            0.4 + (count + 0.78) * step_time,
+            stance_pose(0.0, 0.0, turn, sc.width)[side],
+            height=0.05,
+        )
+    )
+    return _stepping(sc, steps, 0.1 * sc.s, step_time, swing=False)
+
+
+def turn_in_place_left(sc: Scene) -> Plan:
+    """A quarter turn to the left on the spot."""
+    return _turn_in_place(sc, QUARTER)
+
+
+def turn_in_place_right(sc: Scene) -> Plan:
+    """A quarter turn to the right on the spot."""
+    return _turn_in_place(sc, -QUARTER)
+
+
+def _sidestep(sc: Scene, direction: float) -> Plan:
+    """Steps sideways, facing +x: the leading foot opens, the other closes up (four times)."""
+    step = 0.25 * sc.s * sc.jitter(0.05)
+    step_time = 0.6 * sc.jitter(0.05)
+    lead, trail = ("left", "right") if direction > 0 else ("right", "left")
+    steps = []
+    for i in range(4):
+        y = direction * step * (i + 1)
+        start = 0.4 + 2 * i * step_time
+        opened = stance_pose(0.0, y - direction * step / 2, 0.0, sc.width + step / 2)[lead]
+        closed = stance_pose(0.0, y, 0.0, sc.width)[trail]
+        steps.append(Step(lead, start, start + 0.78 * step_time, opened, height=0.05))
+        steps.append(Step(trail, start + step_time, start + 1.78 * step_time, closed, height=0.05))
+    return _stepping(sc, steps, 0.1 * sc.s, step_time, swing=False)
+
+
+def sidestep_left(sc: Scene) -> Plan:
+    """Four sidesteps to the left."""
+    return _sidestep(sc, 1.0)
+
+
+def sidestep_right(sc: Scene) -> Plan:
+    """Four sidesteps to the right."""
+    return _sidestep(sc, -1.0)
+
+
+def walk_backward(sc: Scene) -> Plan:
+    """A walk backwards, facing +x, with short steps."""
+    step = 0.3 * sc.s * sc.jitter(0.05)
+    step_time = 0.6 * sc.jitter(0.05)
+    count = max(4, int((sc.duration - 1.0) / step_time + 0.22))
+    path = np.array([[0.0, 0.0, 0.0], [-(count - 1) * step, 0.0, 0.0]])
+    return _walk_along(sc, path, step, step_time, count)
+
+
+def start_stop(sc: Scene) -> Plan:
+    """Standing, a walk of four steps, standing again."""
+    step = 0.45 * sc.s * sc.jitter(0.05)
+    step_time = 0.55 * sc.jitter(0.05)
+    steps, _ = path_steps(
+        np.array([[0.0, 0.0, 0.0], [3 * step, 0.0, 0.0]]), "right", 1.5, step_time, 0.78 * step_time, 4, sc.width
+    )
+    return _stepping(sc, steps, step, step_time)
