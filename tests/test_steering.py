@@ -68,4 +68,5 @@ def test_the_vocabulary_retargets_to_every_robot_within_limits_and_legs_apart(cl
         assert contacts.depths(stage.clip).max() <= 0.005, (robot, name)
         before, after = (stage.margins[k][~np.isnan(stage.margins[k])] for k in ("before", "after"))
         inside, was = np.mean(after >= 0.0), np.mean(before >= 0.0)
-        assert inside > 0.35 and inside > was + 0.1, (robot, name, was, inside)  # the balance pass helps everywhere
+        # The balance pass helps wherever there is room: walk_fast on H1 is the least balanced (0.57).
+        assert inside > 0.5 and (inside > was + 0.1 or inside > 0.95), (robot, name, was, inside)

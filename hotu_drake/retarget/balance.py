@@ -25,6 +25,7 @@ from hotu_drake.retarget.tree import Pose, Tree
 
 GRAVITY = 9.81
 SMOOTHING = 0.1  # s: the centre of mass and momentum are averaged over this before being differentiated
+ON_FLOOR = 0.01  # m: a sole's contact point this close to the floor bears weight
 
 
 class ClipBalance:
@@ -67,21 +68,23 @@ class ClipBalance:
         return com, pressure
 
     def sole_points(self, poses: Pose, side: str) -> tuple[np.ndarray, np.ndarray]:
-        """A sole's contact points in the world (T, K, 2) and their radii (K,)."""
+        """A sole's contact points in the world (T, K, 3) and their radii (K,)."""
         link, points, radii = self.soles.feet[side]
         world = poses.positions[:, link, None, :] + np.einsum("tij,kj->tki", poses.rotations[:, link], points)
-        return world[..., :2], radii
+        return world, radii
 
     def support(self, poses: Pose, contacts: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The planted soles' contact points (T, K, 2), which are down
-        (T, K), and the smallest contact radius (m)."""
+        """The soles' contact points (T, K, 2), which of them bear weight
+        (T, K): every point of a foot the clip has planted, and any point
+        of a sole on the floor (within `ON_FLOOR`: a toe still down as its
+        heel rises to push off), and the smallest contact radius (m)."""
         points, down, radii = [], [], []
         for side in self.soles.feet:
             world, radius = self.sole_points(poses, side)
             planted = contacts.get(side)
             planted = np.zeros(len(world), bool) if planted is None else np.asarray(planted, bool)
-            points.append(world)
-            down.append(np.repeat(planted[:, None], world.shape[1], axis=1))
+            points.append(world[..., :2])
+            down.append(planted[:, None] | (world[..., 2] - radius < ON_FLOOR))
             radii.append(radius)
         return np.concatenate(points, axis=1), np.concatenate(down, axis=1), float(np.concatenate(radii).min())
 
@@ -149,7 +152,7 @@ def signed_distances(points: np.ndarray, valid: np.ndarray, p: np.ndarray) -> np
     return np.where(valid.any(axis=1), out, np.nan)
 
 
-MARGIN = 0.015  # m: how far inside the support the balance pass asks the centre of pressure to be
+MARGIN = 0.03  # m: how far inside the support the balance pass asks the centre of pressure to be
 MOST_MOVED = 0.15  # m: a centre of pressure further out than this is not the pendulum's to fix (a hang, a fall)
 TRACKING = 1e-4  # the planner's cost of centre-of-mass acceleration against centre-of-pressure error (Drake: 0.1)
 PASSES = 4  # the pass is linear (the inverted pendulum); a second takes up what the first's linearisation left
