@@ -64,7 +64,7 @@ def test_vocabulary():
         "walk", "jump", "squat", "leg_stretch", "boxing", "finger_motions", "handshake",
         "kungfu", "wave", "slap", "thumbs_up", "box_carry", "drill_grasp",
         "walk_fast", "walk_turn_left", "walk_turn_right", "turn_in_place_left", "turn_in_place_right",
-        "sidestep_left", "sidestep_right", "walk_backward", "start_stop",
+        "sidestep_left", "sidestep_right", "walk_backward", "start_stop", "box_carry_task",
     )  # fmt: skip
     with pytest.raises(ValueError, match="unknown motion"):
         generate_udh("moonwalk")
@@ -226,3 +226,45 @@ def test_human_clips_and_library_files(human, tmp_path):
     assert [p.name for p in paths] == ["wave.npz", "box_carry.npz"]
     loaded = MotionClip.load(paths[1])
     np.testing.assert_array_equal(loaded.key_body_positions, generate("box_carry", seed=3).key_body_positions)
+
+
+@pytest.mark.parametrize("seed", [0, 3, 7])
+def test_a_box_carry_task_demonstration_puts_its_box_where_its_task_says(seed):
+    """`box_carry_task@<seed>`: the task drawn as the environment draws it,
+    the box floating at its start, gripped, carried and held at the target."""
+    from hotu_drake.motion.library.object_tasks import BOX_CARRY_RANGES, sample_box_carry
+
+    task = sample_box_carry(np.random.default_rng(seed))
+    for name, value in (("start_distance", np.hypot(*task.start[:2])), ("target_distance", np.hypot(*task.target[:2]))):
+        assert BOX_CARRY_RANGES[name][0] <= value <= BOX_CARRY_RANGES[name][1]
+    clip = generate(f"box_carry_task@{seed}")
+    assert clip.source.endswith(f"box_carry_task@{seed}")
+    box = clip.object_poses[:, clip.object_names.index("box"), :3]
+    np.testing.assert_allclose(box[0], task.start, atol=1e-9)
+    np.testing.assert_allclose(box[-1], task.target, atol=1e-9)
+    held = clip.contact("left_hand_box").astype(bool) & clip.contact("right_hand_box").astype(bool)
+    assert held[-1] and not held[0] and held.mean() > 0.5  # gripped, and still held at the target
+    for side in ("left", "right"):
+        reach = np.linalg.norm(clip.key_body(f"{side}_hand") - box, axis=1)[held]
+        assert np.median(reach) < 0.2  # the hands on the box's sides (its half-width is 0.15 m)
+    moving = np.linalg.norm(np.diff(box, axis=0), axis=1) > 1e-4
+    assert not moving[-int(clip.fps) :].any()  # at rest at the target for the task's last second
+
+
+def test_box_carry_environment_draws_its_tasks_as_the_library_does():
+    """The environment's goal for a seed is the library's task for the same generator state."""
+    import gymnasium as gym
+
+    import hotu_drake.envs  # noqa: F401
+    from hotu_drake.motion.library.object_tasks import sample_box_carry
+
+    env = gym.make("hotu_drake/BoxCarry-v0", robot="bruce", hands="none", motions=["walk"])
+    try:
+        inner = env.unwrapped
+        inner.np_random, _ = gym.utils.seeding.np_random(11)
+        pose, target = inner._sample_goal()
+        task = sample_box_carry(gym.utils.seeding.np_random(11)[0])
+        np.testing.assert_allclose(pose.translation(), task.start)
+        np.testing.assert_allclose(target, task.target)
+    finally:
+        env.close()

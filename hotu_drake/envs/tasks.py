@@ -32,6 +32,7 @@ from hotu_drake import embodiment as embodiments
 from hotu_drake.embodiment.spec import HAND_ROLES
 from hotu_drake.envs.base import DiagramEnv, environment_scenario
 from hotu_drake.errors import InputError, check_number, check_vector
+from hotu_drake.motion.library.object_tasks import BOX_CARRY_RANGES, sample_box_carry
 from hotu_drake.motion.playback import ClipPlayback
 from hotu_drake.objects import (
     DRILL_BASE,
@@ -47,6 +48,9 @@ from hotu_drake.systems.interaction_graph import GOAL_SIZE
 from hotu_drake.systems.transfer_reference import track_index
 
 HOLD_SECONDS = 1.0  # how long the task's end state must hold for success
+# The box carry's demonstrations: task instances of the environment's own distribution, and a walk.
+DEMONSTRATIONS = 24
+BOX_CARRY_MOTIONS = ("walk", *(f"box_carry_task@{seed}" for seed in range(DEMONSTRATIONS)))
 
 
 @dataclass(frozen=True)
@@ -228,6 +232,9 @@ class _ObjectTaskEnv(DiagramEnv):
 class BoxCarryEnv(_ObjectTaskEnv):
     """Carry a box to a target: the box floats in front of the robot at the
     start (held in the air until the robot touches it, as in the method).
+    Its starts and targets are drawn from `BOX_CARRY_RANGES`, the library's
+    task demonstrations (`box_carry_task@<seed>`) from the same ranges:
+    by default D_I learns from `DEMONSTRATIONS` of them, beside a walk.
 
     r_g = 0.2 exp(-2 |hands' midpoint - box|^2) (approach)
         + 0.3 [both hands touch the box and it is above `carry_height`] (carrying)
@@ -240,13 +247,13 @@ class BoxCarryEnv(_ObjectTaskEnv):
         self,
         robot: str | None = None,
         hands: str | None = None,
-        motions: Sequence[str] | None = ("walk", "box_carry"),
-        start_distance: tuple[float, float] = (0.5, 0.8),
-        start_bearing: tuple[float, float] = (-0.3, 0.3),
-        start_height: tuple[float, float] = (0.75, 1.0),
-        target_distance: tuple[float, float] = (1.0, 3.0),
-        target_bearing: tuple[float, float] = (-np.pi, np.pi),
-        target_height: tuple[float, float] = (0.6, 1.0),
+        motions: Sequence[str] | None = BOX_CARRY_MOTIONS,
+        start_distance: tuple[float, float] = BOX_CARRY_RANGES["start_distance"],
+        start_bearing: tuple[float, float] = BOX_CARRY_RANGES["start_bearing"],
+        start_height: tuple[float, float] = BOX_CARRY_RANGES["start_height"],
+        target_distance: tuple[float, float] = BOX_CARRY_RANGES["target_distance"],
+        target_bearing: tuple[float, float] = BOX_CARRY_RANGES["target_bearing"],
+        target_height: tuple[float, float] = BOX_CARRY_RANGES["target_height"],
         carry_height: float = 0.3,
         success_distance: float = 0.1,
         rest_speed: float = 0.1,
@@ -268,13 +275,9 @@ class BoxCarryEnv(_ObjectTaskEnv):
         super().__init__(robot, hands, motions, obj, **options)
 
     def _sample_goal(self) -> tuple[RigidTransform, np.ndarray]:
-        r, rng = self.ranges, self.np_random
-        d, bearing = r["start_distance"].sample(rng), r["start_bearing"].sample(rng)
-        start = [d * np.cos(bearing), d * np.sin(bearing), r["start_height"].sample(rng)]
-        yaw = bearing + float(rng.uniform(-0.3, 0.3))
-        d, bearing = r["target_distance"].sample(rng), r["target_bearing"].sample(rng)
-        target = np.array([d * np.cos(bearing), d * np.sin(bearing), r["target_height"].sample(rng)])
-        return RigidTransform(RollPitchYaw(0.0, 0.0, yaw), start), target
+        ranges = {name: (r.low, r.high) for name, r in self.ranges.items()}
+        task = sample_box_carry(self.np_random, ranges)  # the library's demonstrations draw the same way
+        return RigidTransform(RollPitchYaw(0.0, 0.0, task.start_yaw), list(task.start)), np.array(task.target)
 
     def _task_reward(self, info: dict) -> float:
         box, hands = self.object_position(), self.hand_positions()

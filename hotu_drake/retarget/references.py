@@ -16,7 +16,7 @@ from pathlib import Path
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.errors import InputError
 from hotu_drake.motion.clip import ClipFormatError, MotionClip
-from hotu_drake.motion.library import MOTIONS
+from hotu_drake.motion.library import MOTIONS, is_library_motion
 from hotu_drake.retarget.pipeline import library_clip
 
 _PACKAGE = Path(__file__).resolve().parent.parent
@@ -56,7 +56,7 @@ def library_clip_cached(motion: str, embodiment: Embodiment) -> MotionClip:
 def reference_clip(motion: str, embodiment: Embodiment, base_dir: str | Path | None = None) -> MotionClip:
     """One motion on `embodiment`; a relative clip path is taken from `base_dir`.
     Raises `InputError` for a name that is neither, or a clip of another embodiment."""
-    if motion in MOTIONS:
+    if is_library_motion(motion):
         clip = library_clip_cached(motion, embodiment)
     else:
         path = Path(motion).expanduser()

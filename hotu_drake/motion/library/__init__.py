@@ -21,6 +21,22 @@ and the foot slower than 0.1 m/s) in every clip, plus hand-object contacts
 (``left_hand_box``, ``right_hand_box``, ``right_hand_drill``) while held.
 """
 
-from hotu_drake.motion.library.generate import DURATIONS, MOTIONS, generate, generate_library, generate_udh
+from hotu_drake.motion.library.generate import (
+    DURATIONS,
+    MOTIONS,
+    generate,
+    generate_library,
+    generate_udh,
+    is_library_motion,
+    split_motion_name,
+)
 
-__all__ = ["DURATIONS", "MOTIONS", "generate", "generate_library", "generate_udh"]
+__all__ = [
+    "DURATIONS",
+    "MOTIONS",
+    "generate",
+    "generate_library",
+    "generate_udh",
+    "is_library_motion",
+    "split_motion_name",
+]

@@ -17,7 +17,7 @@ from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import human_clip
 from hotu_drake.motion.library.gestures import boxing, finger_motions, handshake, kungfu, slap, thumbs_up, wave
 from hotu_drake.motion.library.locomotion import jump, leg_stretch, squat, walk
-from hotu_drake.motion.library.object_tasks import box_carry, drill_grasp
+from hotu_drake.motion.library.object_tasks import box_carry, box_carry_task, drill_grasp
 from hotu_drake.motion.library.planning import (
     Scene,
 )
@@ -64,6 +64,8 @@ MOTIONS: tuple[str, ...] = (
     "sidestep_right",
     "walk_backward",
     "start_stop",
+    # A task's demonstrations, one per seed (`box_carry_task@7`): drawn from the task environment's ranges.
+    "box_carry_task",
 )
 # Nominal durations (s); `duration=` stretches or shortens a motion.
 DURATIONS: dict[str, float] = {
@@ -89,6 +91,7 @@ DURATIONS: dict[str, float] = {
     "sidestep_right": 6.0,
     "walk_backward": 4.4,
     "start_stop": 5.2,
+    "box_carry_task": 11.0,
 }
 CONTACT_HEIGHT = 0.01  # m: a sole this close to the floor ...
 CONTACT_SPEED = 0.1  # m/s: ... and moving this slowly is in contact
@@ -122,6 +125,7 @@ _PLANNERS: dict[str, Callable[[Scene], Plan]] = {
     "sidestep_right": sidestep_right,
     "walk_backward": walk_backward,
     "start_stop": start_stop,
+    "box_carry_task": box_carry_task,
 }
 
 
@@ -165,6 +169,25 @@ def _to_clip(udh: Embodiment, body: Body, plan: Plan, name: str) -> MotionClip:
     )
 
 
+def split_motion_name(name: str, seed: int = 0) -> tuple[str, int]:
+    """A library name with an instance seed (`box_carry_task@7`: the motion
+    `box_carry_task` drawn with seed 7) as (name, seed); a plain name keeps `seed`."""
+    if "@" not in name:
+        return name, seed
+    base, _, instance = name.partition("@")
+    if not instance.isdigit():
+        raise InputError(f"{name!r}: the part after @ must be a whole number (a seed)", field="name")
+    return base, int(instance)
+
+
+def is_library_motion(name: str) -> bool:
+    """Whether `name` names a library motion (with or without an instance seed)."""
+    try:
+        return split_motion_name(name)[0] in _PLANNERS
+    except InputError:
+        return False
+
+
 def generate_udh(
     name: str, *, seed: int = 0, fps: float = 30.0, duration: float | None = None, udh: Embodiment | None = None
 ) -> MotionClip:
@@ -173,6 +196,8 @@ def generate_udh(
     `seed` varies step lengths, timings and object placements (the same
     seed gives identical arrays); `duration` (s) stretches the motion.
     """
+    label = name
+    name, seed = split_motion_name(name, seed)
     if name not in _PLANNERS:
         raise InputError(f"unknown motion {name!r}; choose from {', '.join(MOTIONS)}", field="name")
     fps = check_number(fps, "fps", name, low=1.0, high=1000.0, unit="Hz")
@@ -184,7 +209,7 @@ def generate_udh(
         raise ValueError("the library is generated on the UDH")
     body = Body.of(udh)
     scene = Scene(body, float(fps), duration, duration / nominal, np.random.default_rng(seed))
-    return _to_clip(udh, body, _PLANNERS[name](scene), name)
+    return _to_clip(udh, body, _PLANNERS[name](scene), label)
 
 
 def generate(name: str, *, seed: int = 0, fps: float = 30.0, duration: float | None = None) -> MotionClip:

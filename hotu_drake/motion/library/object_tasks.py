@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from hotu_drake.embodiment.spec import SIDES
@@ -165,4 +167,102 @@ def drill_grasp(sc: Scene) -> Plan:
     set_hand_shape(plan, "right", np.repeat((0.05 + 0.75 * grip)[:, None], 4, 1), 0.1 + 0.5 * grip, 0.2 + 0.5 * grip)
     plan.contacts["right_hand_drill"] = t >= g[1] + 0.05 * st
     set_joints(plan, torso_y=0.3 * lean, neck_y=-0.1 * lean + 0.25 * reach, torso_z=0.15 * lean)
+    return plan
+
+
+# The box carry as a task (`BoxCarry-v0`): the box floats in front of the person, to be carried to a
+# target anywhere around. The ranges are stated here once; the environment draws its tasks from them
+# and the library its demonstrations (`box_carry_task@<seed>`), so D_I learns the interaction the task asks.
+BOX_CARRY_RANGES: dict[str, tuple[float, float]] = {
+    "start_distance": (0.5, 0.8),  # m ahead of the person (its ankles' midpoint)
+    "start_bearing": (-0.3, 0.3),  # rad from straight ahead
+    "start_height": (0.75, 1.0),  # m, the box's centre
+    "target_distance": (1.0, 3.0),
+    "target_bearing": (-np.pi, np.pi),
+    "target_height": (0.6, 1.0),
+}
+BOX_YAW_SPREAD = 0.3  # rad: the box's yaw about its bearing
+# m: the UDH palm's half thickness (its 3 cm palm box): the hand landmark this far from a face it presses on.
+PALM_HALF_THICKNESS = 0.015
+LOWEST_STANDING_HOLD = 0.8  # m (for a 1.75 m person): a box centre lower than this is held with bent knees
+
+
+@dataclass(frozen=True)
+class BoxCarryTask:
+    """One box carry: the box's start (x, y, z) and yaw, and its target (x, y, z)."""
+
+    start: tuple[float, float, float]
+    start_yaw: float
+    target: tuple[float, float, float]
+
+
+def sample_box_carry(
+    rng: np.random.Generator, ranges: dict[str, tuple[float, float]] = BOX_CARRY_RANGES
+) -> BoxCarryTask:
+    """A box carry drawn from `ranges` (the environment's draw, in its order)."""
+    d, bearing = rng.uniform(*ranges["start_distance"]), rng.uniform(*ranges["start_bearing"])
+    start = (d * np.cos(bearing), d * np.sin(bearing), rng.uniform(*ranges["start_height"]))
+    yaw = bearing + rng.uniform(-BOX_YAW_SPREAD, BOX_YAW_SPREAD)
+    d, bearing = rng.uniform(*ranges["target_distance"]), rng.uniform(*ranges["target_bearing"])
+    target = (d * np.cos(bearing), d * np.sin(bearing), rng.uniform(*ranges["target_height"]))
+    return BoxCarryTask(tuple(float(x) for x in start), float(yaw), tuple(float(x) for x in target))
+
+
+def box_carry_task(sc: Scene) -> Plan:
+    """One box carry of the task's distribution (drawn from the scene's seed):
+    step up to the box floating ahead, grip it by its sides, walk it to the
+    target, turning to face it, bring it to the target and hold it there."""
+    return carry_box(sc, sample_box_carry(sc.rng))
+
+
+def carry_box(sc: Scene, task: BoxCarryTask) -> Plan:
+    """The box carry of `task` (see `box_carry_task`)."""
+    t, s = sc.t, sc.s
+    half = BOX_SIZE / 2
+    box0, box1 = np.array(task.start), np.array(task.target)
+    yaw0 = task.start_yaw
+    reach = 0.36 * s + half  # ankle line to the box's centre when gripping it at chest height
+    ahead = 0.38 * s  # ankle line to the carried box's centre
+    pick = (*(box0[:2] - reach * np.array([np.cos(yaw0), np.sin(yaw0)])), yaw0)
+    toward = box1[:2] - np.asarray(pick[:2])
+    heading1 = float(np.arctan2(toward[1], toward[0]))
+    heading1 = yaw0 + float(np.angle(np.exp(1j * (heading1 - yaw0))))  # the shorter way round
+    place = (*(box1[:2] - ahead * np.array([np.cos(heading1), np.sin(heading1)])), heading1)
+    walk1, arrive = _walk_to(sc, (0.0, 0.0, 0.0), pick, 0.3, 2)
+    g = arrive + np.array([0.1, 0.6, 0.85, 1.3])  # hands in, onto the faces, grip, into the carry
+    distance = float(np.linalg.norm(np.asarray(place[:2]) - np.asarray(pick[:2])))
+    count = max(3, int(distance / 0.4) + 2 + int(abs(heading1 - yaw0) / 1.2))
+    walk2, arrive2 = _walk_to(sc, pick, place, g[3] + 0.05, count, first="left")
+    p = arrive2 + np.array([0.1, 0.9])  # the box to its target, then held there
+    feet = foot_tracks(t, sc.body, stand(sc), walk1 + walk2)
+    # A box below the standing hands' reach: knees bent (and a lean) to grip it, and to hold it at its target.
+    low0, low1 = (max(0.0, LOWEST_STANDING_HOLD * s - z) for z in (box0[2], box1[2]))
+    bend = low0 * keyframes(t, [g[0], g[1], g[3], g[3] + 0.4], [0, 1, 1, 0]) + low1 * ramp(t, p[0], p[1])
+    base = plan_base(sc, feet, drop=bend, pitch=0.04 + 1.5 * bend, sigma=0.2, balanced=True)
+    plan = base.plan
+    # The box: floating at its start, gripped, into the carry pose (fixed in the heading frame),
+    # carried, brought to its target, held.
+    carried = base.point(np.array([ahead, 0.0, 0.0]))
+    carried[:, 2] = 0.5 * (box0[2] + box1[2])
+    lift, settle = ramp(t, g[2], g[3]), ramp(t, p[0], p[1])
+    held = lift * (1 - settle)
+    box_pos = np.where((t >= p[0])[:, None], box1, box0)
+    box_pos = box_pos + held[:, None] * (carried - box_pos)
+    box_yaw = np.where(t >= p[0], heading1, yaw0) + held * (base.heading - np.where(t >= p[0], heading1, yaw0))
+    plan.objects["box"] = yaw_pose(box_pos, box_yaw)
+    busy = ramp(t, g[0], g[0] + 0.3)
+    _walking_arms(sc, base, busy)
+    reach_in, approach = ramp(t, g[0], g[1]), ramp(t, g[1], g[2] - 0.05)
+    box_rot = rot_z(box_yaw)
+    for side in SIDES:
+        sign = 1.0 if side == "left" else -1.0
+        on_face = np.array([-0.03, sign * (half + PALM_HALF_THICKNESS), 0.04])  # the palm pressed on the face
+        away = np.array([-0.03, sign * (half + 0.12), 0.14])
+        local = away + approach[:, None] * (on_face - away)
+        fingers = np.array([np.sin(0.5), 0.0, -np.cos(0.5)])
+        grasp = (box_pos, box_rot, local, fingers, np.array([0.0, -sign, 0.0]))
+        plan.hands[side] = _reach_target(base, side, reach_in, grasp, [-0.4, sign * 0.6, -0.7], busy, sc.body)
+        grip = ramp(t, g[1], g[2])
+        set_hand_shape(plan, side, np.repeat((0.05 + 0.45 * grip)[:, None], 4, 1), 0.1 + 0.3 * grip, 0.3 * grip)
+        plan.contacts[f"{side}_hand_box"] = t >= g[2] - 0.05
     return plan
