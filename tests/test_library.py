@@ -64,7 +64,7 @@ def test_vocabulary():
         "walk", "jump", "squat", "leg_stretch", "boxing", "finger_motions", "handshake",
         "kungfu", "wave", "slap", "thumbs_up", "box_carry", "drill_grasp",
         "walk_fast", "walk_turn_left", "walk_turn_right", "turn_in_place_left", "turn_in_place_right",
-        "sidestep_left", "sidestep_right", "walk_backward", "start_stop", "box_carry_task",
+        "sidestep_left", "sidestep_right", "walk_backward", "start_stop", "box_carry_task", "drill_grasp_task",
     )  # fmt: skip
     with pytest.raises(ValueError, match="unknown motion"):
         generate_udh("moonwalk")
@@ -264,6 +264,38 @@ def test_box_carry_environment_draws_its_tasks_as_the_library_does():
         inner.np_random, _ = gym.utils.seeding.np_random(11)
         pose, target = inner._sample_goal()
         task = sample_box_carry(gym.utils.seeding.np_random(11)[0])
+        np.testing.assert_allclose(pose.translation(), task.start)
+        np.testing.assert_allclose(target, task.target)
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("seed", [0, 5])
+def test_a_drill_grasp_task_demonstration_lifts_its_drill_where_its_task_says(seed):
+    from hotu_drake.motion.library.object_tasks import sample_drill_grasp
+
+    task = sample_drill_grasp(np.random.default_rng(seed))
+    clip = generate(f"drill_grasp_task@{seed}")
+    drill = clip.object_poses[:, clip.object_names.index("drill"), :3]
+    np.testing.assert_allclose(drill[0], task.start, atol=1e-9)
+    np.testing.assert_allclose(drill[-1], task.target, atol=1e-9)
+    held = clip.contact("right_hand_drill").astype(bool)
+    assert held[-1] and not held[0]
+    assert np.linalg.norm(clip.key_body("right_hand") - drill, axis=1)[held].max() < 0.08  # the hand on the grip
+
+
+def test_drill_grasp_environment_draws_its_tasks_as_the_library_does():
+    import gymnasium as gym
+
+    import hotu_drake.envs  # noqa: F401
+    from hotu_drake.motion.library.object_tasks import sample_drill_grasp
+
+    env = gym.make("hotu_drake/DrillGrasp-v0", robot="bruce", hands="none", motions=["walk"])
+    try:
+        inner = env.unwrapped
+        inner.np_random, _ = gym.utils.seeding.np_random(5)
+        pose, target = inner._sample_goal()
+        task = sample_drill_grasp(gym.utils.seeding.np_random(5)[0])
         np.testing.assert_allclose(pose.translation(), task.start)
         np.testing.assert_allclose(target, task.target)
     finally:

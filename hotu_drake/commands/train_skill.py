@@ -41,7 +41,7 @@ from hotu_drake.commands.run_options import (
 )
 from hotu_drake.embodiment import EMBODIMENT_NAMES, HANDS_VARIANTS
 from hotu_drake.envs.runs import RunEnvironments, skill_run
-from hotu_drake.envs.tasks import BOX_CARRY_MOTIONS
+from hotu_drake.envs.tasks import BOX_CARRY_MOTIONS, DRILL_GRASP_MOTIONS
 from hotu_drake.errors import InputError, check_choice
 from hotu_drake.io import write_text_atomic
 from hotu_drake.learning.agent import Agent
@@ -60,7 +60,7 @@ from hotu_drake.learning.trainer import RunFolder, run_record, train
 from hotu_drake.systems.interaction_graph import GOAL_SIZE
 
 # The motions each task environment learns from by default: its human-object demonstrations and a walk.
-TASK_MOTIONS = {"box_carry": list(BOX_CARRY_MOTIONS), "drill_grasp": ["walk", "drill_grasp"]}
+TASK_MOTIONS = {"box_carry": list(BOX_CARRY_MOTIONS), "drill_grasp": list(DRILL_GRASP_MOTIONS)}
 # The hands a one-level method's robot has by default: the drill grasp is about the fingers.
 TASK_HANDS = {"box_carry": "none", "drill_grasp": "full"}
 # Which behavior controller each two-level method drives.

@@ -32,11 +32,15 @@ from hotu_drake import embodiment as embodiments
 from hotu_drake.embodiment.spec import HAND_ROLES
 from hotu_drake.envs.base import DiagramEnv, environment_scenario
 from hotu_drake.errors import InputError, check_number, check_vector
-from hotu_drake.motion.library.object_tasks import BOX_CARRY_RANGES, sample_box_carry
+from hotu_drake.motion.library.object_tasks import (
+    BOX_CARRY_RANGES,
+    DRILL_GRASP_RANGES,
+    TABLE_DISTANCE,
+    sample_box_carry,
+    sample_drill_grasp,
+)
 from hotu_drake.motion.playback import ClipPlayback
 from hotu_drake.objects import (
-    DRILL_BASE,
-    TABLE_TOP,
     SceneObject,
     object_body,
     place_target_marker,
@@ -48,9 +52,10 @@ from hotu_drake.systems.interaction_graph import GOAL_SIZE
 from hotu_drake.systems.transfer_reference import track_index
 
 HOLD_SECONDS = 1.0  # how long the task's end state must hold for success
-# The box carry's demonstrations: task instances of the environment's own distribution, and a walk.
+# The tasks' demonstrations: instances of the environment's own distribution, and a walk.
 DEMONSTRATIONS = 24
 BOX_CARRY_MOTIONS = ("walk", *(f"box_carry_task@{seed}" for seed in range(DEMONSTRATIONS)))
+DRILL_GRASP_MOTIONS = ("walk", *(f"drill_grasp_task@{seed}" for seed in range(DEMONSTRATIONS)))
 
 
 @dataclass(frozen=True)
@@ -296,7 +301,9 @@ class DrillGraspEnv(_ObjectTaskEnv):
 
     The table stands `table_distance` ahead (0.65 m: within reach; further
     makes the robot walk first), the drill on it; the target is above the
-    drill's start.
+    drill's start. Drawn from `DRILL_GRASP_RANGES`, as the library's task
+    demonstrations (`drill_grasp_task@<seed>`) are: by default D_I learns
+    from `DEMONSTRATIONS` of them, beside a walk.
 
     r_g = 0.3 exp(-5 |right hand - drill|^2) (reach)
         + 0.2 [the right hand touches the drill] (grasp)
@@ -311,10 +318,11 @@ class DrillGraspEnv(_ObjectTaskEnv):
         self,
         robot: str | None = None,
         hands: str | None = None,
-        motions: Sequence[str] | None = ("walk", "drill_grasp"),
-        table_distance: float = 0.65,
-        drill_offset: tuple[float, float] = (-0.15, 0.15),
-        lift_height: tuple[float, float] = (0.15, 0.35),
+        motions: Sequence[str] | None = DRILL_GRASP_MOTIONS,
+        table_distance: float = TABLE_DISTANCE,
+        drill_offset: tuple[float, float] = DRILL_GRASP_RANGES["drill_offset"],
+        drill_yaw: tuple[float, float] = DRILL_GRASP_RANGES["drill_yaw"],
+        lift_height: tuple[float, float] = DRILL_GRASP_RANGES["lift_height"],
         lift_success: float = 0.1,
         **options,
     ):
@@ -323,6 +331,7 @@ class DrillGraspEnv(_ObjectTaskEnv):
         self.table_distance = check_number(table_distance, "table_distance", where, low=0.3, high=10.0, unit="m")
         self.ranges = {
             "drill_offset": Range.of(drill_offset, "drill_offset", where, -0.4, 0.4),
+            "drill_yaw": Range.of(drill_yaw, "drill_yaw", where, -np.pi, np.pi),
             "lift_height": Range.of(lift_height, "lift_height", where, 0.0, 1.0),
         }
         obj = SceneObject(kind="drill", name="drill", target=[0.5, 0.0, 1.0])
@@ -335,13 +344,9 @@ class DrillGraspEnv(_ObjectTaskEnv):
         return [table, obj]
 
     def _sample_goal(self) -> tuple[RigidTransform, np.ndarray]:
-        r, rng = self.ranges, self.np_random
-        y = r["drill_offset"].sample(rng)
-        height = TABLE_TOP + DRILL_BASE + 0.002
-        start = [self.table_distance, y, height]
-        yaw = float(rng.uniform(-0.5, 0.5))
-        target = np.array([self.table_distance - 0.15, y, height + r["lift_height"].sample(rng)])
-        return RigidTransform(RollPitchYaw(0.0, 0.0, yaw), start), target
+        ranges = {name: (r.low, r.high) for name, r in self.ranges.items()}
+        task = sample_drill_grasp(self.np_random, ranges, self.table_distance)  # as the library's demonstrations
+        return RigidTransform(RollPitchYaw(0.0, 0.0, task.start_yaw), list(task.start)), np.array(task.target)
 
     def _task_reward(self, info: dict) -> float:
         drill, right = self.object_position(), self.hand_positions()[1]

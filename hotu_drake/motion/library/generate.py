@@ -17,7 +17,7 @@ from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import human_clip
 from hotu_drake.motion.library.gestures import boxing, finger_motions, handshake, kungfu, slap, thumbs_up, wave
 from hotu_drake.motion.library.locomotion import jump, leg_stretch, squat, walk
-from hotu_drake.motion.library.object_tasks import box_carry, box_carry_task, drill_grasp
+from hotu_drake.motion.library.object_tasks import box_carry, box_carry_task, drill_grasp, drill_grasp_task
 from hotu_drake.motion.library.planning import (
     Scene,
 )
@@ -66,6 +66,7 @@ MOTIONS: tuple[str, ...] = (
     "start_stop",
     # A task's demonstrations, one per seed (`box_carry_task@7`): drawn from the task environment's ranges.
     "box_carry_task",
+    "drill_grasp_task",
 )
 # Nominal durations (s); `duration=` stretches or shortens a motion.
 DURATIONS: dict[str, float] = {
@@ -92,6 +93,7 @@ DURATIONS: dict[str, float] = {
     "walk_backward": 4.4,
     "start_stop": 5.2,
     "box_carry_task": 11.0,
+    "drill_grasp_task": 4.2,
 }
 CONTACT_HEIGHT = 0.01  # m: a sole this close to the floor ...
 CONTACT_SPEED = 0.1  # m/s: ... and moving this slowly is in contact
@@ -126,6 +128,7 @@ _PLANNERS: dict[str, Callable[[Scene], Plan]] = {
     "walk_backward": walk_backward,
     "start_stop": start_stop,
     "box_carry_task": box_carry_task,
+    "drill_grasp_task": drill_grasp_task,
 }
 
 

@@ -266,3 +266,75 @@ def carry_box(sc: Scene, task: BoxCarryTask) -> Plan:
         set_hand_shape(plan, side, np.repeat((0.05 + 0.45 * grip)[:, None], 4, 1), 0.1 + 0.3 * grip, 0.3 * grip)
         plan.contacts[f"{side}_hand_box"] = t >= g[2] - 0.05
     return plan
+
+
+# The drill grasp as a task (`DrillGrasp-v0`): a table within reach ahead, the drill on it, to be lifted.
+# Stated here once; the environment draws its tasks from these, the library its demonstrations
+# (`drill_grasp_task@<seed>`).
+DRILL_GRASP_RANGES: dict[str, tuple[float, float]] = {
+    "drill_offset": (-0.15, 0.15),  # m to the side of straight ahead
+    "drill_yaw": (-0.5, 0.5),  # rad
+    "lift_height": (0.15, 0.35),  # m above its resting height
+}
+TABLE_DISTANCE = 0.65  # m: the drill's grip ahead of the person; the table's top centre 0.15 m further
+LIFT_TOWARDS = 0.15  # m: the drill's target is this much nearer the person than its start
+
+
+@dataclass(frozen=True)
+class DrillGraspTask:
+    """One drill grasp: the drill's grip centre on the table (x, y, z) and yaw, and its lift target."""
+
+    start: tuple[float, float, float]
+    start_yaw: float
+    target: tuple[float, float, float]
+
+
+def sample_drill_grasp(
+    rng: np.random.Generator,
+    ranges: dict[str, tuple[float, float]] = DRILL_GRASP_RANGES,
+    table_distance: float = TABLE_DISTANCE,
+) -> DrillGraspTask:
+    """A drill grasp drawn from `ranges` (the environment's draw, in its order)."""
+    y = rng.uniform(*ranges["drill_offset"])
+    height = TABLE_TOP + DRILL_BASE + 0.002
+    yaw = rng.uniform(*ranges["drill_yaw"])
+    target = (table_distance - LIFT_TOWARDS, y, height + rng.uniform(*ranges["lift_height"]))
+    return DrillGraspTask((float(table_distance), float(y), float(height)), float(yaw), tuple(float(x) for x in target))
+
+
+def drill_grasp_task(sc: Scene) -> Plan:
+    """One drill grasp of the task's distribution (drawn from the scene's
+    seed): standing at the table, lean, close the right hand on the drill's
+    grip, lift it to its target and hold it there."""
+    return grasp_drill(sc, sample_drill_grasp(sc.rng))
+
+
+def grasp_drill(sc: Scene, task: DrillGraspTask) -> Plan:
+    """The drill grasp of `task` (see `drill_grasp_task`)."""
+    t = sc.t
+    start, target = np.array(task.start), np.array(task.target)
+    g = np.array([0.3, 1.2, 1.45, 1.6, 2.6])  # lean + reach, close, lift, held
+    feet = foot_tracks(t, sc.body, stand(sc), [])
+    lean = keyframes(t, [g[0], g[1], g[3], g[4]], [0, 1, 1, 0.3])
+    base = plan_base(sc, feet, drop=0.06 * sc.s * lean, pitch=0.2 * lean + 0.04, sigma=0.2)
+    plan = base.plan
+    lift = ramp(t, g[3], g[4])
+    drill_pos = start + lift[:, None] * (target - start)
+    drill_yaw = np.full(len(t), task.start_yaw)
+    plan.objects["drill"] = yaw_pose(drill_pos, drill_yaw)
+    table = np.array([start[0] + 0.15, 0.0, TABLE_TOP])
+    plan.objects["table"] = yaw_pose(np.tile(table, (len(t), 1)), np.zeros(len(t)))
+    busy = ramp(t, g[0], g[0] + 0.3)
+    _walking_arms(sc, base, busy)
+    reach = ramp(t, g[0], g[1] - 0.25)
+    approach = ramp(t, g[1] - 0.3, g[1])
+    on_grip = np.array([-0.015, -0.045, 0.0])
+    away = np.array([-0.1, -0.1, 0.06])
+    local = away + approach[:, None] * (on_grip - away)
+    grasp = (drill_pos, rot_z(drill_yaw), local, np.array([1.0, 0.0, -0.35]), np.array([0.0, 1.0, 0.0]))
+    plan.hands["right"] = _reach_target(base, "right", reach, grasp, [-0.3, -0.6, -0.8], busy, sc.body)
+    grip = ramp(t, g[1] - 0.05, g[2])
+    set_hand_shape(plan, "right", np.repeat((0.05 + 0.75 * grip)[:, None], 4, 1), 0.1 + 0.5 * grip, 0.2 + 0.5 * grip)
+    plan.contacts["right_hand_drill"] = t >= g[1] + 0.05
+    set_joints(plan, torso_y=0.3 * lean, neck_y=-0.1 * lean + 0.25 * reach, torso_z=0.15 * lean)
+    return plan
