@@ -251,25 +251,6 @@ def test_a_box_carry_task_demonstration_puts_its_box_where_its_task_says(seed):
     assert not moving[-int(clip.fps) :].any()  # at rest at the target for the task's last second
 
 
-def test_box_carry_environment_draws_its_tasks_as_the_library_does():
-    """The environment's goal for a seed is the library's task for the same generator state."""
-    import gymnasium as gym
-
-    import hotu_drake.envs  # noqa: F401
-    from hotu_drake.motion.library.object_tasks import sample_box_carry
-
-    env = gym.make("hotu_drake/BoxCarry-v0", robot="bruce", hands="none", motions=["walk"])
-    try:
-        inner = env.unwrapped
-        inner.np_random, _ = gym.utils.seeding.np_random(11)
-        pose, target = inner._sample_goal()
-        task = sample_box_carry(gym.utils.seeding.np_random(11)[0])
-        np.testing.assert_allclose(pose.translation(), task.start)
-        np.testing.assert_allclose(target, task.target)
-    finally:
-        env.close()
-
-
 @pytest.mark.parametrize("seed", [0, 5])
 def test_a_drill_grasp_task_demonstration_lifts_its_drill_where_its_task_says(seed):
     from hotu_drake.motion.library.object_tasks import sample_drill_grasp
@@ -284,19 +265,23 @@ def test_a_drill_grasp_task_demonstration_lifts_its_drill_where_its_task_says(se
     assert np.linalg.norm(clip.key_body("right_hand") - drill, axis=1)[held].max() < 0.08  # the hand on the grip
 
 
-def test_drill_grasp_environment_draws_its_tasks_as_the_library_does():
+@pytest.mark.parametrize("task", ["box_carry", "drill_grasp"])
+def test_the_task_environment_draws_its_tasks_as_the_library_does(task):
+    """The environment's goal for a generator state is the library's task for the same state."""
     import gymnasium as gym
 
     import hotu_drake.envs  # noqa: F401
-    from hotu_drake.motion.library.object_tasks import sample_drill_grasp
+    from hotu_drake.motion.library import object_tasks
 
-    env = gym.make("hotu_drake/DrillGrasp-v0", robot="bruce", hands="none", motions=["walk"])
+    env_id = {"box_carry": "hotu_drake/BoxCarry-v0", "drill_grasp": "hotu_drake/DrillGrasp-v0"}[task]
+    sample = {"box_carry": object_tasks.sample_box_carry, "drill_grasp": object_tasks.sample_drill_grasp}[task]
+    env = gym.make(env_id, robot="bruce", hands="none", motions=["walk"])
     try:
         inner = env.unwrapped
-        inner.np_random, _ = gym.utils.seeding.np_random(5)
+        inner.np_random, _ = gym.utils.seeding.np_random(11)
         pose, target = inner._sample_goal()
-        task = sample_drill_grasp(gym.utils.seeding.np_random(5)[0])
-        np.testing.assert_allclose(pose.translation(), task.start)
-        np.testing.assert_allclose(target, task.target)
+        expected = sample(gym.utils.seeding.np_random(11)[0])
+        np.testing.assert_allclose(pose.translation(), expected.start)
+        np.testing.assert_allclose(target, expected.target)
     finally:
         env.close()

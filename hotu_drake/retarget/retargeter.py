@@ -234,10 +234,7 @@ class Retargeter:
         for side in SIDES:
             s = f"{side}_"
             elbow = self._joints(f"{s}elbow_")
-            bend = None
-            if elbow and {f"{s}shoulder", f"{s}elbow", f"{s}wrist"} <= both:
-                sign = self._hinge_sign(elbow[0], f"{s}shoulder", f"{s}elbow", f"{s}wrist")
-                bend = (BendPlane(elbow[0], sign), ("bend", f"{s}shoulder", f"{s}elbow", f"{s}wrist"))
+            bend = self._bend(both, elbow, f"{s}shoulder", f"{s}elbow", f"{s}wrist")
             add(
                 f"{s}shoulder",
                 1,
@@ -270,10 +267,7 @@ class Retargeter:
                     finger_joints += joints
             add(f"{s}finger", FINGER_LEVEL, finger_joints, finger_targets)
             knee = self._joints(f"{s}knee_")
-            bend = None
-            if knee and {f"{s}hip", f"{s}knee", f"{s}ankle"} <= both:
-                sign = self._hinge_sign(knee[0], f"{s}hip", f"{s}knee", f"{s}ankle")
-                bend = (BendPlane(knee[0], sign), ("bend", f"{s}hip", f"{s}knee", f"{s}ankle"))
+            bend = self._bend(both, knee, f"{s}hip", f"{s}knee", f"{s}ankle")
             add(
                 f"{s}hip",
                 1,
@@ -296,6 +290,13 @@ class Retargeter:
                 [self._direction(both, f"{s}ankle", f"{s}toe"), self._level_foot_target(s)],
             )
         return sorted(parts, key=lambda p: p.level)
+
+    def _bend(self, both: set[str], hinge: list[int], proximal: str, middle: str, distal: str):
+        """The bend plane of a limb whose middle joint is the hinge `hinge` (elbow, knee), if it has one."""
+        if hinge and {proximal, middle, distal} <= both:
+            sign = self._hinge_sign(hinge[0], proximal, middle, distal)
+            return BendPlane(hinge[0], sign), ("bend", proximal, middle, distal)
+        return None
 
     def _sideways(self, both: set[str], s: str, point: str):
         """A leg point's (knee, ankle or toe) sideways offset from its hip, as the source's scaled to this leg."""

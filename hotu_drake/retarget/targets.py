@@ -97,53 +97,60 @@ class Landmarks:
 
 
 @dataclass
-class Direction:
-    """The unit vector from landmark `start` to `end` should match the source's."""
+class Segment:
+    """A target on the segment from landmark `start` to landmark `end`."""
 
     start: str
     end: str
     weight: float = 1.0
 
-    def rows(self, marks: Landmarks, pose: Pose, joints: list[int], target: np.ndarray):
+    def span(self, marks: Landmarks, pose: Pose, joints: list[int]) -> tuple[np.ndarray, np.ndarray]:
+        """end - start (3,) and its Jacobian over `joints` (3, k)."""
         ps, js = marks.point_jacobian(pose, self.start, joints)
         pe, je = marks.point_jacobian(pose, self.end, joints)
-        u, length = _normalize(pe - ps)
-        jacobian = (np.eye(3) - np.outer(u, u)) @ (je - js) / max(length, 1e-9)
-        return jacobian, target - u, self.weight
+        return pe - ps, je - js
 
-    def rows_frames(self, marks: Landmarks, poses: Pose, joints: list[int], targets: np.ndarray):
+    def span_frames(self, marks: Landmarks, poses: Pose, joints: list[int]) -> tuple[np.ndarray, np.ndarray]:
+        """`span` for every frame: (T, 3) and (T, 3, k)."""
         ps, js = marks.point_jacobian_frames(poses, self.start, joints)
         pe, je = marks.point_jacobian_frames(poses, self.end, joints)
-        u, length = _normalize_frames(pe - ps)
-        projector = np.eye(3) - u[:, :, None] * u[:, None, :]
-        jacobian = projector @ (je - js) / np.maximum(length, 1e-9)[:, None, None]
-        return jacobian, targets - u, np.full(len(u), self.weight)
+        return pe - ps, je - js
 
 
 @dataclass
-class Sideways:
+class Direction(Segment):
+    """The unit vector from landmark `start` to `end` should match the source's."""
+
+    def rows(self, marks: Landmarks, pose: Pose, joints: list[int], target: np.ndarray):
+        span, jacobian = self.span(marks, pose, joints)
+        u, length = _normalize(span)
+        return (np.eye(3) - np.outer(u, u)) @ jacobian / max(length, 1e-9), target - u, self.weight
+
+    def rows_frames(self, marks: Landmarks, poses: Pose, joints: list[int], targets: np.ndarray):
+        span, jacobian = self.span_frames(marks, poses, joints)
+        u, length = _normalize_frames(span)
+        projector = np.eye(3) - u[:, :, None] * u[:, None, :]
+        weights = np.full(len(u), self.weight)
+        return projector @ jacobian / np.maximum(length, 1e-9)[:, None, None], targets - u, weights
+
+
+@dataclass
+class Sideways(Segment):
     """How far landmark `end` lies to the body's left of landmark `start`
     should be the source's, scaled: a foot's offset from its own hip, so a
     robot stands at its own width. Its target is the body's left axis and
     the offset along it (4,), or (T, 4) over frames."""
 
-    start: str
-    end: str
-    weight: float = 1.0
-
     def rows(self, marks: Landmarks, pose: Pose, joints: list[int], target: np.ndarray):
-        ps, js = marks.point_jacobian(pose, self.start, joints)
-        pe, je = marks.point_jacobian(pose, self.end, joints)
+        span, jacobian = self.span(marks, pose, joints)
         left, offset = target[:3], target[3]
-        return (left @ (je - js))[None], np.array([offset - left @ (pe - ps)]), self.weight
+        return (left @ jacobian)[None], np.array([offset - left @ span]), self.weight
 
     def rows_frames(self, marks: Landmarks, poses: Pose, joints: list[int], targets: np.ndarray):
-        ps, js = marks.point_jacobian_frames(poses, self.start, joints)
-        pe, je = marks.point_jacobian_frames(poses, self.end, joints)
+        span, jacobian = self.span_frames(marks, poses, joints)
         left, offset = targets[:, :3], targets[:, 3]
-        jacobian = np.einsum("ti,tik->tk", left, je - js)[:, None, :]
-        error = (offset - np.einsum("ti,ti->t", left, pe - ps))[:, None]
-        return jacobian, error, np.full(len(error), self.weight)
+        error = (offset - np.einsum("ti,ti->t", left, span))[:, None]
+        return np.einsum("ti,tik->tk", left, jacobian)[:, None, :], error, np.full(len(error), self.weight)
 
 
 def sideways_offsets(points: dict[str, np.ndarray], end: str = "ankle") -> dict[str, np.ndarray]:

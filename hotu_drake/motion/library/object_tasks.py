@@ -188,24 +188,22 @@ LOWEST_STANDING_HOLD = 0.8  # m (for a 1.75 m person): a box centre lower than t
 
 
 @dataclass(frozen=True)
-class BoxCarryTask:
-    """One box carry: the box's start (x, y, z) and yaw, and its target (x, y, z)."""
+class ObjectTask:
+    """One instance of an object task: the object's start (x, y, z) and yaw, and its target (x, y, z)."""
 
     start: tuple[float, float, float]
     start_yaw: float
     target: tuple[float, float, float]
 
 
-def sample_box_carry(
-    rng: np.random.Generator, ranges: dict[str, tuple[float, float]] = BOX_CARRY_RANGES
-) -> BoxCarryTask:
+def sample_box_carry(rng: np.random.Generator, ranges: dict[str, tuple[float, float]] = BOX_CARRY_RANGES) -> ObjectTask:
     """A box carry drawn from `ranges` (the environment's draw, in its order)."""
     d, bearing = rng.uniform(*ranges["start_distance"]), rng.uniform(*ranges["start_bearing"])
     start = (d * np.cos(bearing), d * np.sin(bearing), rng.uniform(*ranges["start_height"]))
     yaw = bearing + rng.uniform(-BOX_YAW_SPREAD, BOX_YAW_SPREAD)
     d, bearing = rng.uniform(*ranges["target_distance"]), rng.uniform(*ranges["target_bearing"])
     target = (d * np.cos(bearing), d * np.sin(bearing), rng.uniform(*ranges["target_height"]))
-    return BoxCarryTask(tuple(float(x) for x in start), float(yaw), tuple(float(x) for x in target))
+    return ObjectTask(tuple(float(x) for x in start), float(yaw), tuple(float(x) for x in target))
 
 
 def box_carry_task(sc: Scene) -> Plan:
@@ -215,7 +213,7 @@ def box_carry_task(sc: Scene) -> Plan:
     return carry_box(sc, sample_box_carry(sc.rng))
 
 
-def carry_box(sc: Scene, task: BoxCarryTask) -> Plan:
+def carry_box(sc: Scene, task: ObjectTask) -> Plan:
     """The box carry of `task` (see `box_carry_task`)."""
     t, s = sc.t, sc.s
     half = BOX_SIZE / 2
@@ -280,26 +278,17 @@ TABLE_DISTANCE = 0.65  # m: the drill's grip ahead of the person; the table's to
 LIFT_TOWARDS = 0.15  # m: the drill's target is this much nearer the person than its start
 
 
-@dataclass(frozen=True)
-class DrillGraspTask:
-    """One drill grasp: the drill's grip centre on the table (x, y, z) and yaw, and its lift target."""
-
-    start: tuple[float, float, float]
-    start_yaw: float
-    target: tuple[float, float, float]
-
-
 def sample_drill_grasp(
     rng: np.random.Generator,
     ranges: dict[str, tuple[float, float]] = DRILL_GRASP_RANGES,
     table_distance: float = TABLE_DISTANCE,
-) -> DrillGraspTask:
+) -> ObjectTask:
     """A drill grasp drawn from `ranges` (the environment's draw, in its order)."""
     y = rng.uniform(*ranges["drill_offset"])
     height = TABLE_TOP + DRILL_BASE + 0.002
     yaw = rng.uniform(*ranges["drill_yaw"])
     target = (table_distance - LIFT_TOWARDS, y, height + rng.uniform(*ranges["lift_height"]))
-    return DrillGraspTask((float(table_distance), float(y), float(height)), float(yaw), tuple(float(x) for x in target))
+    return ObjectTask((float(table_distance), float(y), float(height)), float(yaw), tuple(float(x) for x in target))
 
 
 def drill_grasp_task(sc: Scene) -> Plan:
@@ -309,7 +298,7 @@ def drill_grasp_task(sc: Scene) -> Plan:
     return grasp_drill(sc, sample_drill_grasp(sc.rng))
 
 
-def grasp_drill(sc: Scene, task: DrillGraspTask) -> Plan:
+def grasp_drill(sc: Scene, task: ObjectTask) -> Plan:
     """The drill grasp of `task` (see `drill_grasp_task`)."""
     t = sc.t
     start, target = np.array(task.start), np.array(task.target)
