@@ -465,6 +465,17 @@ def balanced_pelvis_path(
     return np.array([path.value(t)[:, 0] for t in times])
 
 
+def smooth_under(limit: np.ndarray, fps: float, window: float = 0.12, sigma: float = 0.06) -> np.ndarray:
+    """A smooth path (T,) under `limit` (T,): the limit's lowest within
+    +-`window` seconds, low-passed over `sigma`, so a dip of the limit is
+    met by a gentle descent rather than a drop of several centimetres in a
+    frame (which would ask the feet for a large, brief change of force)."""
+    half = max(1, int(round(window * fps)))
+    padded = np.concatenate([np.repeat(limit[:1], half), limit, np.repeat(limit[-1:], half)])
+    lowest = np.lib.stride_tricks.sliding_window_view(padded, 2 * half + 1).min(axis=1)
+    return np.minimum(smooth(lowest, fps, sigma), limit)
+
+
 def reachable_height(
     xy: np.ndarray, pelvis_rot: np.ndarray, feet: dict, body: Body, knee: float, fps: float
 ) -> np.ndarray:

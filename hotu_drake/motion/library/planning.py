@@ -18,6 +18,7 @@ from hotu_drake.motion.synthesis import (
     hand_rotation,
     pelvis_over_feet,
     reachable_height,
+    smooth_under,
     stance_pose,
 )
 from hotu_drake.rotations import rot_x, rot_y, rot_z
@@ -108,7 +109,10 @@ def plan_base(
     if shift is not None:
         xy = xy + heading_frame(heading, np.column_stack([shift, np.zeros(n)]))[:, :2]
     rot = rot_z(heading + twist) @ rot_y(np.broadcast_to(pitch, n)) @ rot_x(np.broadcast_to(roll, n))
-    z = reachable_height(xy, rot, feet, sc.body, KNEE, sc.fps) - drop
+    z = reachable_height(xy, rot, feet, sc.body, KNEE, sc.fps)
+    if balanced:  # no sudden drops of the pelvis: they are forces the feet would have to give
+        z = smooth_under(z, sc.fps)
+    z = z - drop
     plan = Plan(fps=sc.fps, pelvis=np.column_stack([xy, z]), pelvis_rot=rot, feet=feet)
     return Base(plan, heading)
 
