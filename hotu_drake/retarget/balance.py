@@ -153,7 +153,7 @@ def signed_distances(points: np.ndarray, valid: np.ndarray, p: np.ndarray) -> np
 
 
 MARGIN = 0.03  # m: how far inside the support the balance pass asks the centre of pressure to be
-MOST_MOVED = 0.15  # m: a centre of pressure further out than this is not the pendulum's to fix (a hang, a fall)
+MOST_MOVED = 0.15  # m: the furthest the pass moves a frame's centre of pressure (a hang or a fall: only this far)
 TRACKING = 1e-4  # the planner's cost of centre-of-mass acceleration against centre-of-pressure error (Drake: 0.1)
 PASSES = 4  # the pass is linear (the inverted pendulum); a second takes up what the first's linearisation left
 
@@ -220,7 +220,6 @@ class TorqueDemand:
         self.model = emb.add_to_plant(plant, builtin_pd=False)
         plant.Finalize()
         self.context = plant.CreateDefaultContext()
-        self.root = plant.GetBodyByName(emb.spec.root.name, self.model)
         self.floating = emb.floating_base
         self.columns = [plant.GetJointByName(n, self.model).position_start() for n in emb.joint_names]
         self.velocity_columns = [plant.GetJointByName(n, self.model).velocity_start() for n in emb.joint_names]

@@ -97,7 +97,6 @@ class LegContacts:
         self.context = self.diagram.CreateDefaultContext()
         self.plant_context = plant.GetMyContextFromRoot(self.context)
         self.emb = emb
-        inspector = scene_graph.model_inspector()
         sides = {}
         for link in emb.spec.links:
             if link.part in LEG_PARTS and link.side in ("left", "right") and link.collisions:
@@ -105,7 +104,6 @@ class LegContacts:
                 for geometry in plant.GetCollisionGeometriesForBody(body):
                     sides[geometry] = link.side
         self._sides = sides
-        self._inspector = inspector
         self._columns = [plant.GetJointByName(n, self.model).position_start() for n in emb.joint_names]
 
     def depths(self, clip: MotionClip) -> np.ndarray:
