@@ -66,6 +66,64 @@ def _reach_target(
     return HandTarget(rest + r * (on - rest), hand_rotation(side, fingers, palm), base.vector(elbow), weight)
 
 
+def _grip_drill(
+    sc: Scene,
+    base: Base,
+    drill_pos: np.ndarray,
+    drill_yaw: np.ndarray,
+    g: np.ndarray,
+    lean: np.ndarray,
+    st: float = 1.0,
+) -> None:
+    """The right hand reaching for the drill from `g[0]`, onto its grip by
+    `g[1]`, closed by `g[2]`; the torso leaning with `lean` (T,). `st`
+    stretches the reach's durations with the motion's."""
+    t, plan = sc.t, base.plan
+    busy = ramp(t, g[0], g[0] + 0.3 * st)
+    _walking_arms(sc, base, busy)
+    reach = ramp(t, g[0], g[1] - 0.25 * st)
+    approach = ramp(t, g[1] - 0.3 * st, g[1])
+    on_grip = np.array([-0.015, -0.045, 0.0])
+    away = np.array([-0.1, -0.1, 0.06])
+    local = away + approach[:, None] * (on_grip - away)
+    grasp = (drill_pos, rot_z(drill_yaw), local, np.array([1.0, 0.0, -0.35]), np.array([0.0, 1.0, 0.0]))
+    plan.hands["right"] = _reach_target(base, "right", reach, grasp, [-0.3, -0.6, -0.8], busy, sc.body)
+    grip = ramp(t, g[1] - 0.05 * st, g[2])
+    set_hand_shape(plan, "right", np.repeat((0.05 + 0.75 * grip)[:, None], 4, 1), 0.1 + 0.5 * grip, 0.2 + 0.5 * grip)
+    plan.contacts["right_hand_drill"] = t >= g[1] + 0.05 * st
+    set_joints(plan, torso_y=0.3 * lean, neck_y=-0.1 * lean + 0.25 * reach, torso_z=0.15 * lean)
+
+
+def _grip_box_sides(
+    sc: Scene,
+    base: Base,
+    box_pos: np.ndarray,
+    box_yaw: np.ndarray,
+    reach: np.ndarray,
+    approach: np.ndarray,
+    grip: np.ndarray,
+    touching: np.ndarray,
+    busy: np.ndarray,
+    gap: float,
+) -> None:
+    """Both hands on the box's side faces: from beside the thighs (`reach`
+    0) to beside the faces (1), then onto them (`approach` 1), the hand
+    landmark `gap` from the face; fingers closing with `grip` (T,), in
+    contact where `touching`."""
+    half = BOX_SIZE / 2
+    box_rot = rot_z(box_yaw)
+    for side in SIDES:
+        sign = 1.0 if side == "left" else -1.0
+        on_face = np.array([-0.03, sign * (half + gap), 0.04])
+        away = np.array([-0.03, sign * (half + 0.12), 0.14])
+        local = away + approach[:, None] * (on_face - away)
+        fingers = np.array([np.sin(0.5), 0.0, -np.cos(0.5)])
+        grasp = (box_pos, box_rot, local, fingers, np.array([0.0, -sign, 0.0]))
+        base.plan.hands[side] = _reach_target(base, side, reach, grasp, [-0.4, sign * 0.6, -0.7], busy, sc.body)
+        set_hand_shape(base.plan, side, np.repeat((0.05 + 0.45 * grip)[:, None], 4, 1), 0.1 + 0.3 * grip, 0.3 * grip)
+        base.plan.contacts[f"{side}_hand_box"] = touching
+
+
 def box_carry(sc: Scene) -> Plan:
     """Walk to a box on the floor, squat, grip it by its sides, lift, carry it
     along a turning path, set it down at its target pose, stand up."""
@@ -114,18 +172,8 @@ def box_carry(sc: Scene) -> Plan:
     reach = keyframes(t, [g[0] + 0.35 * st, g[1], p[4], p[5] - 0.35 * st], [0, 1, 1, 0])
     approach = keyframes(t, [g[1], g[2], p[3], p[4]], [0, 1, 1, 0])
     touching = (t >= g[2]) & (t < p[3])
-    box_rot = rot_z(box_yaw)
-    for side in SIDES:
-        sign = 1.0 if side == "left" else -1.0
-        on_face = np.array([-0.03, sign * (half + 0.02), 0.04])
-        away = np.array([-0.03, sign * (half + 0.12), 0.14])
-        local = away + approach[:, None] * (on_face - away)
-        fingers = np.array([np.sin(0.5), 0.0, -np.cos(0.5)])
-        grasp = (box_pos, box_rot, local, fingers, np.array([0.0, -sign, 0.0]))
-        plan.hands[side] = _reach_target(base, side, reach, grasp, [-0.4, sign * 0.6, -0.7], busy, sc.body)
-        grip = keyframes(t, [g[2] - 0.1 * st, g[3], p[2], p[3]], [0, 1, 1, 0])
-        set_hand_shape(plan, side, np.repeat((0.05 + 0.45 * grip)[:, None], 4, 1), 0.1 + 0.3 * grip, 0.3 * grip)
-        plan.contacts[f"{side}_hand_box"] = touching
+    grip = keyframes(t, [g[2] - 0.1 * st, g[3], p[2], p[3]], [0, 1, 1, 0])
+    _grip_box_sides(sc, base, box_pos, box_yaw, reach, approach, grip, touching, busy, gap=0.02)
     set_joints(plan, torso_y=0.75 * crouch, neck_y=-0.55 * crouch)
     return plan
 
@@ -154,19 +202,7 @@ def drill_grasp(sc: Scene) -> Plan:
     drill_yaw = drill_yaw + lift * (base.heading - drill_yaw)
     plan.objects["drill"] = yaw_pose(drill_pos, drill_yaw)
     plan.objects["table"] = yaw_pose(np.tile(table, (len(t), 1)), np.full(len(t), heading0))
-    busy = ramp(t, g[0], g[0] + 0.3 * st)
-    _walking_arms(sc, base, busy)
-    reach = ramp(t, g[0], g[1] - 0.25 * st)
-    approach = ramp(t, g[1] - 0.3 * st, g[1])
-    on_grip = np.array([-0.015, -0.045, 0.0])
-    away = np.array([-0.1, -0.1, 0.06])
-    local = away + approach[:, None] * (on_grip - away)
-    grasp = (drill_pos, rot_z(drill_yaw), local, np.array([1.0, 0.0, -0.35]), np.array([0.0, 1.0, 0.0]))
-    plan.hands["right"] = _reach_target(base, "right", reach, grasp, [-0.3, -0.6, -0.8], busy, sc.body)
-    grip = ramp(t, g[1] - 0.05 * st, g[2])
-    set_hand_shape(plan, "right", np.repeat((0.05 + 0.75 * grip)[:, None], 4, 1), 0.1 + 0.5 * grip, 0.2 + 0.5 * grip)
-    plan.contacts["right_hand_drill"] = t >= g[1] + 0.05 * st
-    set_joints(plan, torso_y=0.3 * lean, neck_y=-0.1 * lean + 0.25 * reach, torso_z=0.15 * lean)
+    _grip_drill(sc, base, drill_pos, drill_yaw, g, lean, st)
     return plan
 
 
@@ -251,18 +287,8 @@ def carry_box(sc: Scene, task: ObjectTask) -> Plan:
     busy = ramp(t, g[0], g[0] + 0.3)
     _walking_arms(sc, base, busy)
     reach_in, approach = ramp(t, g[0], g[1]), ramp(t, g[1], g[2] - 0.05)
-    box_rot = rot_z(box_yaw)
-    for side in SIDES:
-        sign = 1.0 if side == "left" else -1.0
-        on_face = np.array([-0.03, sign * (half + PALM_HALF_THICKNESS), 0.04])  # the palm pressed on the face
-        away = np.array([-0.03, sign * (half + 0.12), 0.14])
-        local = away + approach[:, None] * (on_face - away)
-        fingers = np.array([np.sin(0.5), 0.0, -np.cos(0.5)])
-        grasp = (box_pos, box_rot, local, fingers, np.array([0.0, -sign, 0.0]))
-        plan.hands[side] = _reach_target(base, side, reach_in, grasp, [-0.4, sign * 0.6, -0.7], busy, sc.body)
-        grip = ramp(t, g[1], g[2])
-        set_hand_shape(plan, side, np.repeat((0.05 + 0.45 * grip)[:, None], 4, 1), 0.1 + 0.3 * grip, 0.3 * grip)
-        plan.contacts[f"{side}_hand_box"] = t >= g[2] - 0.05
+    grip, touching = ramp(t, g[1], g[2]), t >= g[2] - 0.05
+    _grip_box_sides(sc, base, box_pos, box_yaw, reach_in, approach, grip, touching, busy, gap=PALM_HALF_THICKNESS)
     return plan
 
 
@@ -313,17 +339,5 @@ def grasp_drill(sc: Scene, task: ObjectTask) -> Plan:
     plan.objects["drill"] = yaw_pose(drill_pos, drill_yaw)
     table = np.array([start[0] + 0.15, 0.0, TABLE_TOP])
     plan.objects["table"] = yaw_pose(np.tile(table, (len(t), 1)), np.zeros(len(t)))
-    busy = ramp(t, g[0], g[0] + 0.3)
-    _walking_arms(sc, base, busy)
-    reach = ramp(t, g[0], g[1] - 0.25)
-    approach = ramp(t, g[1] - 0.3, g[1])
-    on_grip = np.array([-0.015, -0.045, 0.0])
-    away = np.array([-0.1, -0.1, 0.06])
-    local = away + approach[:, None] * (on_grip - away)
-    grasp = (drill_pos, rot_z(drill_yaw), local, np.array([1.0, 0.0, -0.35]), np.array([0.0, 1.0, 0.0]))
-    plan.hands["right"] = _reach_target(base, "right", reach, grasp, [-0.3, -0.6, -0.8], busy, sc.body)
-    grip = ramp(t, g[1] - 0.05, g[2])
-    set_hand_shape(plan, "right", np.repeat((0.05 + 0.75 * grip)[:, None], 4, 1), 0.1 + 0.5 * grip, 0.2 + 0.5 * grip)
-    plan.contacts["right_hand_drill"] = t >= g[1] + 0.05
-    set_joints(plan, torso_y=0.3 * lean, neck_y=-0.1 * lean + 0.25 * reach, torso_z=0.15 * lean)
+    _grip_drill(sc, base, drill_pos, drill_yaw, g, lean)
     return plan
