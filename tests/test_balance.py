@@ -62,10 +62,11 @@ def test_a_centre_of_pressure_outside_the_feet_is_caught_by_the_report_and_broug
     planted = {"left": np.ones(clip.num_frames, bool), "right": np.ones(clip.num_frames, bool)}
     outside = np.tile([0.25, 0.0], (clip.num_frames, 1))  # ahead of the toes
     assert np.all(dynamics.support_margin(poses, outside, planted) < -0.05)
-    brought = desired_pressure(dynamics, poses, outside, planted)
+    support = dynamics.support(poses, planted)
+    brought = desired_pressure(support, outside)
     margin = dynamics.support_margin(poses, brought, planted)
     assert np.all(margin >= 0.0149) and np.all(brought[:, 0] < 0.25)  # 1.5 cm inside, pushed back from where it was
-    far = desired_pressure(dynamics, poses, np.tile([1.0, 0.0], (clip.num_frames, 1)), planted)
+    far = desired_pressure(support, np.tile([1.0, 0.0], (clip.num_frames, 1)))
     np.testing.assert_allclose(far[:, 0], 0.85)  # a metre out is not the pendulum's to fix: moved by 15 cm at most
     # The report: a clip whose body lurches forward over still feet.
     ahead = np.zeros((30, 3))
@@ -77,11 +78,12 @@ def test_a_centre_of_pressure_outside_the_feet_is_caught_by_the_report_and_broug
 
 def test_the_balance_pass_brings_the_walk_over_the_feet():
     walk = to_udh(generate("walk"), "none").clip
-    for robot in ("h1", "walker"):
+    for robot in ("h1", "walker", "bruce"):
         stage = to_robot(walk, robot, "none")
         before, after = (stage.margins[k][~np.isnan(stage.margins[k])] for k in ("before", "after"))
         inside, was = np.mean(after >= 0), np.mean(before >= 0)
-        assert inside > 0.9 and inside > was + 0.2, (robot, was, inside)
+        # Measured: 0.31-0.74 before, 0.98-0.99 after (BRUCE's line feet too).
+        assert inside >= 0.95 and inside > was + 0.2, (robot, was, inside)
         unbalanced = to_robot(walk, robot, "none", RetargetOptions(balance=False))
         assert unbalanced.margins == {}
 

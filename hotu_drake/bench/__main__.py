@@ -12,6 +12,7 @@ python -m hotu_drake.bench fidelity [--robot NAME|all] [--rates HZ ...] [--thres
 python -m hotu_drake.bench train    [--robot NAME] [--motions M ...] [--workers N ...] [--iterations K]
                                     [--algo dail|amp|ase|pmp]
 python -m hotu_drake.bench readers  [--input FILE ...] [--repeats N]
+python -m hotu_drake.bench clips    [--motions M ...] [--input FILE ...] [--robots NAME ...] [--markdown]
 """
 
 import json
@@ -19,6 +20,8 @@ import sys
 from pathlib import Path
 
 from hotu_drake import embodiment
+from hotu_drake.bench.clips import LEGGED
+from hotu_drake.bench.clips import LIBRARY as LIBRARY_CLIPS
 from hotu_drake.bench.standing import machine, one_core, pin_to_one_core, standing_realtime_factor
 from hotu_drake.cli import ArgumentParser, positive_float, run_cli
 from hotu_drake.errors import InputError, check_number
@@ -302,6 +305,31 @@ def _readers(args) -> int:
     return 0
 
 
+def _clips(args) -> int:
+    from hotu_drake.bench.clips import clip_rows, markdown, source
+    from hotu_drake.motion.library import MOTIONS
+
+    for name in args.motions:
+        if name not in MOTIONS:
+            raise InputError(f"--motions: {name!r} is not a library motion")
+    for path in args.input:
+        if not Path(path).is_file():
+            raise InputError(f"{path}: no such file")
+    for robot in args.robots:
+        if robot not in embodiment.EMBODIMENT_NAMES:
+            raise InputError(f"--robots: {robot!r} is not an embodiment")
+    pin_to_one_core()
+    rows = []
+    for name in [*args.motions, *args.input]:
+        for row in clip_rows(name, source(name), tuple(args.robots)):
+            print(json.dumps(row), file=sys.stderr, flush=True)
+            rows.append(row)
+    if args.markdown:
+        print(markdown(rows), file=sys.stderr, flush=True)
+    print(json.dumps({"benchmark": "clips", "machine": machine(), "rows": rows}, indent=2))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = ArgumentParser(prog="python -m hotu_drake.bench", description="Benchmarks that print JSON.")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -365,7 +393,14 @@ def main(argv: list[str] | None = None) -> int:
     readers = sub.add_parser("readers", help="seconds to generate the motion library and to read motion files")
     readers.add_argument("--input", nargs="*", default=[], help="motion files to read (BVH, C3D, CSV, .npz)")
     readers.add_argument("--repeats", type=int, default=3, help="reads per file; the median is reported (default 3)")
+    clips = sub.add_parser("clips", help="stance, legs apart, balance and torques of retargeted clips per robot")
+    clips.add_argument("--motions", nargs="*", default=list(LIBRARY_CLIPS), help="library motions (issue 27's)")
+    clips.add_argument("--input", nargs="*", default=[], help="motion files (BVH, C3D, .npz) to retarget too")
+    clips.add_argument("--robots", nargs="+", default=list(LEGGED), help="embodiments (default: the legged ones)")
+    clips.add_argument("--markdown", action="store_true", help="also print a Markdown table on stderr")
     args = parser.parse_args(argv)
+    if args.command == "clips":
+        return _clips(args)
     if args.command == "readers":
         return _readers(args)
     if args.command == "train":

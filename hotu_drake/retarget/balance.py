@@ -17,6 +17,9 @@ frame with a foot on the floor.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from functools import cached_property
+
 import numpy as np
 
 from hotu_drake.embodiment import Embodiment
@@ -73,7 +76,7 @@ class ClipBalance:
         world = poses.positions[:, link, None, :] + np.einsum("tij,kj->tki", poses.rotations[:, link], points)
         return world, radii
 
-    def support(self, poses: Pose, contacts: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def support(self, poses: Pose, contacts: dict[str, np.ndarray]) -> Support:
         """The soles' contact points (T, K, 2), which of them bear weight
         (T, K): every point of a foot the clip has planted, and any point
         of a sole on the floor (within `ON_FLOOR`: a toe still down as its
@@ -86,13 +89,43 @@ class ClipBalance:
             points.append(world[..., :2])
             down.append(planted[:, None] | (world[..., 2] - radius < ON_FLOOR))
             radii.append(radius)
-        return np.concatenate(points, axis=1), np.concatenate(down, axis=1), float(np.concatenate(radii).min())
+        return Support(np.concatenate(points, axis=1), np.concatenate(down, axis=1), float(np.concatenate(radii).min()))
 
     def support_margin(self, poses: Pose, pressure: np.ndarray, contacts: dict[str, np.ndarray]) -> np.ndarray:
         """Per frame, how far (m) the centre of pressure lies inside the
         planted soles' support (negative: outside); NaN with no foot down."""
-        points, down, radius = self.support(poses, contacts)
-        return signed_distances(points, down, pressure) + radius
+        return self.support(poses, contacts).margin(pressure)
+
+
+@dataclass
+class Support:
+    """The planted soles of a clip: contact points (T, K, 2), which bear
+    weight (T, K), and the smallest contact radius (m); the edges of each
+    frame's convex hull are found once (`hull_edges`)."""
+
+    points: np.ndarray
+    down: np.ndarray
+    radius: float
+
+    @cached_property
+    def edges(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        return hull_edges(self.points, self.down)
+
+    def margin(self, pressure: np.ndarray) -> np.ndarray:
+        """Per frame, how far (m) `pressure` (T, 2) lies inside (negative: outside; NaN with no foot down)."""
+        return signed_distances(self.points, self.down, pressure, self.edges) + self.radius
+
+
+def shifted_pressure(com: np.ndarray, pressure: np.ndarray, shift: np.ndarray, fps: float) -> np.ndarray:
+    """The centre of pressure (T, 2) of a clip whose every link is moved
+    sideways by `shift` (T, 2): the angular momentum about the centre of
+    mass is unchanged by a common translation, so only the centre of mass
+    (T, 3) and its acceleration change (smoothed as `centroidal` smooths)."""
+    dt = 1.0 / fps
+    window = max(1, int(round(SMOOTHING * fps)))
+    lift = np.gradient(np.gradient(smooth(com[:, 2], window), dt), dt) + GRAVITY
+    pushed = np.gradient(np.gradient(smooth(shift, window), dt, axis=0), dt, axis=0)
+    return pressure + shift - com[:, 2:3] * pushed / lift[:, None]
 
 
 def smooth(values: np.ndarray, window: int) -> np.ndarray:
@@ -133,11 +166,12 @@ def hull_edges(points: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.nd
     return a, edge, hull, usable
 
 
-def signed_distances(points: np.ndarray, valid: np.ndarray, p: np.ndarray) -> np.ndarray:
+def signed_distances(points: np.ndarray, valid: np.ndarray, p: np.ndarray, edges=None) -> np.ndarray:
     """How far each frame's `p` (T, 2) lies inside the convex hull of its
     valid points (T, K, 2) (negative: outside; a hull of collinear points
-    has no inside; NaN with no valid point)."""
-    a, edge, hull, usable = hull_edges(points, valid)
+    has no inside; NaN with no valid point); `edges`: their `hull_edges`,
+    when known."""
+    a, edge, hull, usable = hull_edges(points, valid) if edges is None else edges
     length = np.maximum(np.einsum("tei,tei->te", edge, edge), 1e-18)
     s = np.clip(np.einsum("tei,tei->te", p[:, None] - a, edge) / length, 0.0, 1.0)
     distance = np.linalg.norm(p[:, None] - (a + s[..., None] * edge), axis=-1)  # (T, E) to each segment
@@ -153,27 +187,26 @@ def signed_distances(points: np.ndarray, valid: np.ndarray, p: np.ndarray) -> np
 
 
 MARGIN = 0.03  # m: how far inside the support the balance pass asks the centre of pressure to be
-MOST_MOVED = 0.15  # m: the furthest the pass moves a frame's centre of pressure (a hang or a fall: only this far)
+MOST_MOVED = 0.15  # m: the furthest the pass moves a frame's centre of pressure, or its body (a fall: only this far)
 TRACKING = 1e-4  # the planner's cost of centre-of-mass acceleration against centre-of-pressure error (Drake: 0.1)
-PASSES = 4  # the pass is linear (the inverted pendulum); a second takes up what the first's linearisation left
+PASSES = 12  # the planner's pendulum is not the clip's (height varies, pressure smoothed): passes take up the rest
+SETTLED = 1e-3  # m: the passes stop once no frame's centre of pressure is to move further than this
 
 
-def desired_pressure(
-    balance: ClipBalance, poses: Pose, pressure: np.ndarray, contacts: dict[str, np.ndarray], margin: float = MARGIN
-) -> np.ndarray:
+def desired_pressure(support: Support, pressure: np.ndarray, margin: float = MARGIN) -> np.ndarray:
     """The centre of pressure (T, 2) brought `margin` inside the planted
-    soles' support where it was not: moved from p towards the soles'
+    soles' `support` where it was not: moved from p towards the soles'
     centre c just as far as needed (the first point of the segment c -> p,
     from p's end, inside every hull edge by `margin`), by at most
     `MOST_MOVED`; unchanged with no foot down."""
-    points, down, radius = balance.support(poses, contacts)
+    points, down, radius = support.points, support.down, support.radius
     out = pressure.copy()
-    needed = np.flatnonzero(signed_distances(points, down, pressure) + radius < margin)  # NaN compares False
+    needed = np.flatnonzero(support.margin(pressure) < margin)  # NaN compares False
     if not len(needed):
         return out
     points, down, pressure = points[needed], down[needed], pressure[needed]
     centre = np.einsum("tki,tk->ti", points, down) / np.maximum(down.sum(axis=1), 1)[:, None]
-    a, edge, hull, _ = hull_edges(points, down)
+    a, edge, hull, _ = (part[needed] for part in support.edges)
     inward = np.stack([-edge[..., 1], edge[..., 0]], -1) / np.maximum(np.linalg.norm(edge, axis=-1), 1e-12)[..., None]
     clearance = np.einsum("tei,tei->te", inward, centre[:, None] - a) - (margin - radius)  # c's room inside each edge
     approach = np.einsum("tei,ti->te", inward, pressure - centre)  # < 0: going from c towards p leaves that edge
@@ -181,8 +214,8 @@ def desired_pressure(
     reach[~hull.any(axis=1)] = 0.0  # a flat support (one foot of line contacts) has no inside: its centre
     step = np.clip(reach, 0.0, 1.0)
     moved = centre + step[:, None] * (pressure - centre) - pressure
-    scale = np.minimum(1.0, MOST_MOVED / np.maximum(np.linalg.norm(moved, axis=1), 1e-12))
-    out[needed] = pressure + scale[:, None] * moved
+    out[needed] = pressure + _capped(moved, MOST_MOVED)
+
     return out
 
 
@@ -203,7 +236,32 @@ def centre_of_mass_shift(com: np.ndarray, pressure: np.ndarray, desired: np.ndar
     reference = PiecewisePolynomial.FirstOrderHold(np.append(times, times[-1] + 1.0), np.c_[change, change[:, -1]])
     planner.Plan(reference, np.zeros(4), float(np.mean(com[:, 2])), GRAVITY, np.eye(2), TRACKING * np.eye(2))
     trajectory = planner.get_nominal_com()
-    return np.array([trajectory.value(t)[:, 0] for t in times])
+    return trajectory.vector_values(times).T
+
+
+def balancing_shift(
+    support: Support, com: np.ndarray, pressure: np.ndarray, fps: float, passes: int = PASSES
+) -> np.ndarray:
+    """The ZMP filter: the sideways shift (T, 2) of the whole body that
+    brings the clip's centre of pressure `MARGIN` inside its `support`.
+    Each pass asks `ZmpPlanner` for the shift that moves the centre of
+    pressure where `desired_pressure` wants it, on the body as the passes
+    so far have moved it (`shifted_pressure`); at most `passes` passes,
+    fewer once nothing is left to move. No frame is moved further than
+    `MOST_MOVED`."""
+    shift = np.zeros((len(com), 2))
+    for _ in range(passes):
+        moved = shifted_pressure(com, pressure, shift, fps)
+        desired = desired_pressure(support, moved)
+        if np.max(np.abs(desired - moved), initial=0.0) < SETTLED:
+            break
+        shift = _capped(shift + centre_of_mass_shift(com, moved, desired, fps), MOST_MOVED)
+    return shift
+
+
+def _capped(vectors: np.ndarray, longest: float) -> np.ndarray:
+    """Vectors (T, 2) shortened to at most `longest`."""
+    return vectors * np.minimum(1.0, longest / np.maximum(np.linalg.norm(vectors, axis=1), 1e-12))[:, None]
 
 
 class TorqueDemand:

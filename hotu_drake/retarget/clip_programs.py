@@ -38,7 +38,7 @@ import numpy as np
 from pydrake.solvers import MathematicalProgram, OsqpSolver, SolverOptions
 
 from hotu_drake.embodiment.spec import SIDES
-from hotu_drake.retarget.balance import PASSES, centre_of_mass_shift, desired_pressure, smooth
+from hotu_drake.retarget.balance import balancing_shift, smooth
 from hotu_drake.retarget.part_ik import FINGER_LEVEL, SHAPE_TOLERANCE, TRUST_REGION
 from hotu_drake.retarget.targets import sideways_target
 from hotu_drake.retarget.tree import Pose
@@ -46,8 +46,8 @@ from hotu_drake.rotations import heading_rotation, normalize
 
 # s: the window over which the root's drift correction (planted feet kept where they landed) is averaged.
 DRIFT_SMOOTHING = 0.2
-# Relinearisations of the legs' program after the body moves (the balance pass).
-MOVE_ITERATIONS = 2
+# The balance pass: rounds of the ZMP filter (at most this many passes each) and of the legs' program.
+BALANCE_ROUNDS = (8, 4)
 # The legs' program: weights of a planted ankle's distance (m) from its anchor
 # and of its sole's tilt (rad), against the legs' direction targets (1 each).
 ANCHOR_WEIGHT = 100.0
@@ -452,22 +452,25 @@ class ClipSolver:
         positions[:, 2] += self._heights(self._lowest(self._poses(q, rotations, positions)), contacts)
         return positions
 
-    def move_body(
-        self, q: np.ndarray, rotations: np.ndarray, positions: np.ndarray, contacts: dict, fixed: dict, shift
-    ) -> np.ndarray:
-        """Root positions moved by `shift` (T, 3) with the planted feet kept
-        where they are: the legs' program solves the legs again, each
-        planted ankle anchored where it was; then the soles' heights."""
-        r = self.r
+    def planted_ankles(self, q: np.ndarray, rotations: np.ndarray, positions: np.ndarray, contacts: dict) -> dict:
+        """Each leg's ankle (T, 3) where its foot is planted, NaN elsewhere."""
         poses = self._poses(q, rotations, positions)
         anchors = {}
-        for side in r._lock:
-            ankle = r.marks.point_jacobian_frames(poses, f"{side}_ankle", [])[0]
+        for side in self.r._lock:
+            ankle = self.r.marks.point_jacobian_frames(poses, f"{side}_ankle", [])[0]
             planted = contacts.get(side, np.zeros(self.frames, bool))
             anchors[side] = np.where(planted[:, None], ankle, np.nan)
+        return anchors
+
+    def move_body(
+        self, q: np.ndarray, rotations: np.ndarray, positions: np.ndarray, contacts: dict, fixed: dict, shift, anchors
+    ) -> np.ndarray:
+        """Root positions moved by `shift` (T, 3) with the planted feet kept
+        on their `anchors` (`planted_ankles`): the legs' program solves the
+        legs again; then the soles' heights."""
+        r = self.r
         positions = positions + shift
-        for _ in range(MOVE_ITERATIONS):
-            self._lock_legs(q, rotations, positions, anchors, fixed, self._poses(q, rotations, positions))
+        self._lock_legs(q, rotations, positions, anchors, fixed, self._poses(q, rotations, positions))
         np.clip(q, r.embodiment.position_lower, r.embodiment.position_upper, out=q)
         positions[:, 2] += self._heights(self._lowest(self._poses(q, rotations, positions)), contacts)
         return positions
@@ -504,25 +507,29 @@ def balance(
 ) -> tuple[np.ndarray, dict]:
     """The balance pass: the body shifted so that the clip's centre of
     pressure, with the robot's own mass distribution, comes
-    `balance.MARGIN` inside its planted soles' support
-    (`balance.desired_pressure`), by the centre-of-mass shift Drake's
-    `ZmpPlanner` gives for it, `balance.PASSES` times over (each on the
-    body as the last left it); then the legs' program puts the planted
-    feet back where they were. Returns the root positions and the support
-    margins (m, per frame) before and after."""
+    `balance.MARGIN` inside the support of its planted soles (the ZMP
+    filter `balance.balancing_shift`, through Drake's `ZmpPlanner`), and
+    the legs' program putting the planted feet back where they were; in
+    `BALANCE_ROUNDS` rounds, each filtering the body the last one left
+    (the legs do not move quite as a translated body would, and the feet
+    may settle by a few millimetres). Returns the root positions and the
+    support margins (m, per frame) before and after."""
     dynamics = solver.r.balance
     poses = dynamics.poses(q, rotations, positions)
+    support = dynamics.support(poses, contacts)  # where the planted feet are, and will be put back
     com, pressure = dynamics.centroidal(poses, fps)
-    margins = {"before": dynamics.support_margin(poses, pressure, contacts)}
-    shift = np.zeros((len(q), 3))
-    for _ in range(PASSES):  # the feet move with the body here: their support is where they will be put back
-        moved = poses.translated(shift[:, None])
-        com, pressure = dynamics.centroidal(moved, fps)
-        desired = desired_pressure(dynamics, poses, pressure, contacts)
-        shift[:, :2] += centre_of_mass_shift(com, pressure, desired, fps)
-    positions = solver.move_body(q, rotations, positions, contacts, fixed, shift)
-    poses = dynamics.poses(q, rotations, positions)
-    margins["after"] = dynamics.support_margin(poses, dynamics.centroidal(poses, fps)[1], contacts)
+    margins = {"before": support.margin(pressure)}
+    anchors = solver.planted_ankles(q, rotations, positions, contacts)
+    for passes in BALANCE_ROUNDS:
+        shift = balancing_shift(support, com, pressure, fps, passes)
+        if not np.any(np.abs(shift) > 1e-4):
+            break
+        shift = np.c_[shift, np.zeros(len(q))]
+        positions = solver.move_body(q, rotations, positions, contacts, fixed, shift, anchors)
+        poses = dynamics.poses(q, rotations, positions)
+        support = dynamics.support(poses, contacts)
+        com, pressure = dynamics.centroidal(poses, fps)
+    margins["after"] = support.margin(pressure)
     return positions, margins
 
 
