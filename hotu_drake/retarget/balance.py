@@ -190,6 +190,7 @@ MARGIN = 0.03  # m: how far inside the support the balance pass asks the centre 
 MOST_MOVED = 0.15  # m: the furthest the pass moves a frame's centre of pressure, or its body (a fall: only this far)
 TRACKING = 1e-4  # the planner's cost of centre-of-mass acceleration against centre-of-pressure error (Drake: 0.1)
 PASSES = 12  # the planner's pendulum is not the clip's (height varies, pressure smoothed): passes take up the rest
+STEP_FRACTIONS = (1.0, 0.5, 0.25)  # of the planner's shift, tried in turn until one helps
 SETTLED = 1e-3  # m: the passes stop once no frame's centre of pressure is to move further than this
 
 
@@ -246,17 +247,35 @@ def balancing_shift(
     brings the clip's centre of pressure `MARGIN` inside its `support`.
     Each pass asks `ZmpPlanner` for the shift that moves the centre of
     pressure where `desired_pressure` wants it, on the body as the passes
-    so far have moved it (`shifted_pressure`); at most `passes` passes,
-    fewer once nothing is left to move. No frame is moved further than
-    `MOST_MOVED`."""
+    so far have moved it (`shifted_pressure`), and takes it (or half, or a
+    quarter) if that leaves less `shortfall`: the planner's pendulum is not
+    the clip's, and on a noisy capture a whole step can make things worse.
+    At most `passes` passes; fewer once nothing is left to move or no step
+    helps. No frame is moved further than `MOST_MOVED`."""
     shift = np.zeros((len(com), 2))
+    moved = pressure
+    left = shortfall(support, moved)
     for _ in range(passes):
-        moved = shifted_pressure(com, pressure, shift, fps)
         desired = desired_pressure(support, moved)
         if np.max(np.abs(desired - moved), initial=0.0) < SETTLED:
             break
-        shift = _capped(shift + centre_of_mass_shift(com, moved, desired, fps), MOST_MOVED)
+        step = centre_of_mass_shift(com, moved, desired, fps)
+        for fraction in STEP_FRACTIONS:
+            trial = _capped(shift + fraction * step, MOST_MOVED)
+            trial_pressure = shifted_pressure(com, pressure, trial, fps)
+            trial_left = shortfall(support, trial_pressure)
+            if trial_left < left:
+                shift, moved, left = trial, trial_pressure, trial_left
+                break
+        else:
+            break
     return shift
+
+
+def shortfall(support: Support, pressure: np.ndarray) -> float:
+    """How far (m, summed over the supported frames) the centre of pressure
+    is from `MARGIN` inside the support, each frame counting `MOST_MOVED` at most."""
+    return float(np.nansum(np.clip(MARGIN - support.margin(pressure), 0.0, MOST_MOVED)))
 
 
 def _capped(vectors: np.ndarray, longest: float) -> np.ndarray:

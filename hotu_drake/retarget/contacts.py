@@ -6,8 +6,9 @@ from hotu_drake.embodiment.spec import EmbodimentSpec
 from hotu_drake.retarget.tree import Pose, Tree
 
 CONTACT_HEIGHT = 0.04  # m above the clip's floor
-CONTACT_SPEED = 0.12  # m/s horizontal, of the middle of the foot
+CONTACT_SPEED = 0.12  # m/s horizontal, of the foot's stiller end (heel or toe)
 MIN_PHASE_FRAMES = 3
+MIN_PHASE_SECONDS = 0.05  # and no contact or flight phase shorter than this
 
 
 def _clean(flags: np.ndarray, min_frames: int) -> np.ndarray:
@@ -27,19 +28,22 @@ def _clean(flags: np.ndarray, min_frames: int) -> np.ndarray:
 
 
 def detect_foot_contacts(landmarks: dict[str, np.ndarray], fps: float) -> dict[str, np.ndarray]:
-    """side -> (T,) bool: the foot is low and (nearly) still."""
+    """side -> (T,) bool: the foot is low and one of its ends (nearly)
+    still: the heel as it lands, the toe as the heel rises to push off."""
     heights = np.stack(
         [np.minimum(landmarks[f"{s}_toe"][:, 2], landmarks[f"{s}_ankle"][:, 2]) for s in ("left", "right")]
     )
     floor = np.percentile(heights.min(axis=0), 5)
+    shortest = max(MIN_PHASE_FRAMES, int(round(MIN_PHASE_SECONDS * fps)))
     out = {}
     for i, side in enumerate(("left", "right")):
-        middle = 0.5 * (landmarks[f"{side}_toe"] + landmarks[f"{side}_ankle"])
-        speed = (
-            np.linalg.norm(np.gradient(middle[:, :2], 1.0 / fps, axis=0), axis=1) if len(middle) > 1 else np.zeros(1)
-        )
+        ends = [landmarks[f"{side}_{end}"][:, :2] for end in ("toe", "ankle")]
+        if len(heights[i]) > 1:
+            speed = np.minimum(*(np.linalg.norm(np.gradient(end, 1.0 / fps, axis=0), axis=1) for end in ends))
+        else:
+            speed = np.zeros(1)
         low = heights[i] - floor < CONTACT_HEIGHT
-        out[side] = _clean(low & (speed < CONTACT_SPEED), MIN_PHASE_FRAMES)
+        out[side] = _clean(low & (speed < CONTACT_SPEED), shortest)
     return out
 
 
