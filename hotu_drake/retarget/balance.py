@@ -215,7 +215,7 @@ def desired_pressure(support: Support, pressure: np.ndarray, margin: float = MAR
     reach[~hull.any(axis=1)] = 0.0  # a flat support (one foot of line contacts) has no inside: its centre
     step = np.clip(reach, 0.0, 1.0)
     moved = centre + step[:, None] * (pressure - centre) - pressure
-    out[needed] = pressure + _capped(moved, MOST_MOVED)
+    out[needed] = pressure + capped(moved, MOST_MOVED)
 
     return out
 
@@ -261,7 +261,7 @@ def balancing_shift(
             break
         step = centre_of_mass_shift(com, moved, desired, fps)
         for fraction in STEP_FRACTIONS:
-            trial = _capped(shift + fraction * step, MOST_MOVED)
+            trial = capped(shift + fraction * step, MOST_MOVED)
             trial_pressure = shifted_pressure(com, pressure, trial, fps)
             trial_left = shortfall(support, trial_pressure)
             if trial_left < left:
@@ -278,7 +278,7 @@ def shortfall(support: Support, pressure: np.ndarray) -> float:
     return float(np.nansum(np.clip(MARGIN - support.margin(pressure), 0.0, MOST_MOVED)))
 
 
-def _capped(vectors: np.ndarray, longest: float) -> np.ndarray:
+def capped(vectors: np.ndarray, longest: float) -> np.ndarray:
     """Vectors (T, 2) shortened to at most `longest`."""
     return vectors * np.minimum(1.0, longest / np.maximum(np.linalg.norm(vectors, axis=1), 1e-12))[:, None]
 

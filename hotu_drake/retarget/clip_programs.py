@@ -38,7 +38,7 @@ import numpy as np
 from pydrake.solvers import MathematicalProgram, OsqpSolver, SolverOptions
 
 from hotu_drake.embodiment.spec import SIDES
-from hotu_drake.retarget.balance import balancing_shift, smooth
+from hotu_drake.retarget.balance import MOST_MOVED, balancing_shift, capped, smooth
 from hotu_drake.retarget.part_ik import FINGER_LEVEL, SHAPE_TOLERANCE, TRUST_REGION
 from hotu_drake.retarget.targets import sideways_target
 from hotu_drake.retarget.tree import Pose
@@ -47,11 +47,17 @@ from hotu_drake.rotations import heading_rotation, normalize
 # s: the window over which the root's drift correction (planted feet kept where they landed) is averaged.
 DRIFT_SMOOTHING = 0.2
 # The balance pass: rounds of the ZMP filter (at most this many passes each) and of the legs' program.
-BALANCE_ROUNDS = (8, 4)
+BALANCE_ROUNDS = (8, 4, 4)
+# The share of the body's shift its centre of mass was measured to follow is taken within these bounds.
+CARRIED = (0.5, 1.0)
 # The legs' program: weights of a planted ankle's distance (m) from its anchor
 # and of its sole's tilt (rad), against the legs' direction targets (1 each).
 ANCHOR_WEIGHT = 100.0
 TILT_WEIGHT = 1.0
+# The balance pass: the weight of a swinging ankle's path (m) at lift-off and touch-down, so that the moved
+# body does not carry it off its anchor, fading over `SWING_FADE` s into the swing.
+SWING_WEIGHT = 3.0
+SWING_FADE = 0.05
 
 
 class ClipProgram:
@@ -452,34 +458,47 @@ class ClipSolver:
         positions[:, 2] += self._heights(self._lowest(self._poses(q, rotations, positions)), contacts)
         return positions
 
-    def planted_ankles(self, q: np.ndarray, rotations: np.ndarray, positions: np.ndarray, contacts: dict) -> dict:
-        """Each leg's ankle (T, 3) where its foot is planted, NaN elsewhere."""
+    def ankles(self, q: np.ndarray, rotations: np.ndarray, positions: np.ndarray) -> dict[str, np.ndarray]:
+        """Each leg's ankle (T, 3) in the world."""
         poses = self._poses(q, rotations, positions)
-        anchors = {}
-        for side in self.r._lock:
-            ankle = self.r.marks.point_jacobian_frames(poses, f"{side}_ankle", [])[0]
-            planted = contacts.get(side, np.zeros(self.frames, bool))
-            anchors[side] = np.where(planted[:, None], ankle, np.nan)
-        return anchors
+        return {side: self.r.marks.point_jacobian_frames(poses, f"{side}_ankle", [])[0] for side in self.r._lock}
 
     def move_body(
-        self, q: np.ndarray, rotations: np.ndarray, positions: np.ndarray, contacts: dict, fixed: dict, shift, anchors
+        self,
+        q: np.ndarray,
+        rotations: np.ndarray,
+        positions: np.ndarray,
+        contacts: dict,
+        fixed: dict,
+        shift: np.ndarray,
+        ankles: dict[str, np.ndarray],
+        fps: float,
     ) -> np.ndarray:
-        """Root positions moved by `shift` (T, 3) with the planted feet kept
-        on their `anchors` (`planted_ankles`): the legs' program solves the
-        legs again; then the soles' heights."""
+        """Root positions moved by `shift` (T, 3) with the feet kept where
+        they were (`ankles`, from before any move): the legs' program solves
+        the legs again, each planted ankle anchored there and each swinging
+        one drawn to its path near its contacts (so a foot lifting off
+        leaves from its anchor, not from where the moved body would carry
+        it); then the soles' heights."""
         r = self.r
+        planted = {side: contacts.get(side, np.zeros(self.frames, bool)) for side in ankles}
+        anchors = {side: np.where(planted[side][:, None], ankle, np.nan) for side, ankle in ankles.items()}
+        fade = SWING_FADE * fps
+        swing = {side: (ankle, SWING_WEIGHT * _near_contact(planted[side], fade)) for side, ankle in ankles.items()}
         positions = positions + shift
-        self._lock_legs(q, rotations, positions, anchors, fixed, self._poses(q, rotations, positions))
+        self._lock_legs(q, rotations, positions, anchors, fixed, self._poses(q, rotations, positions), swing=swing)
         np.clip(q, r.embodiment.position_lower, r.embodiment.position_upper, out=q)
         positions[:, 2] += self._heights(self._lowest(self._poses(q, rotations, positions)), contacts)
         return positions
 
-    def _lock_legs(self, q, rotations, positions, anchors: dict[str, np.ndarray], fixed: dict, poses: Pose) -> None:
+    def _lock_legs(
+        self, q, rotations, positions, anchors: dict[str, np.ndarray], fixed: dict, poses: Pose, swing=None
+    ) -> None:
         """The leg program: the legs' own targets, and over each contact phase
-        the planted ankle on its anchor with its sole level; a few
-        relinearisations of one program over both legs, the first at `poses`
-        (the body's, at q)."""
+        the planted ankle on its anchor with its sole level (and, given
+        `swing` ankle paths (T, 3) and weights (T,) per side, each unplanted
+        ankle drawn to its path); a few relinearisations of one program over
+        both legs, the first at `poses` (the body's, at q)."""
         r, program = self.r, self.lock
         planted = {side: ~np.isnan(anchor[:, 0]) for side, anchor in anchors.items()}
         for iteration in range(r.options.lock_iterations):
@@ -494,9 +513,13 @@ class ClipSolver:
                 level = heading_rotation(poses.rotations[:, foot_link]) @ r.rest_frames[f"{side}_foot"]
                 target = np.where(planted[side][:, None], anchors[side], 0.0)
                 rows = [row for part in self.leg_parts[side] for row in self._rows(part, joints, fixed, q, poses)]
-                for goal, targets, weight in ((position, target, ANCHOR_WEIGHT), (orientation, level, TILT_WEIGHT)):
+                goals = [(position, target, ANCHOR_WEIGHT * mask), (orientation, level, TILT_WEIGHT * mask)]
+                if swing is not None:
+                    path, weight = swing[side]
+                    goals.append((position, path, weight * (1.0 - mask)))
+                for goal, targets, weight in goals:
                     jacobian, error, _ = goal.rows_frames(r.marks, poses, joints, targets)
-                    rows.append((jacobian, error, weight * mask))
+                    rows.append((jacobian, error, weight))
                 blocks.append((joints, rows))
             if self._step(program, blocks, q) < r.options.tolerance:
                 break
@@ -519,18 +542,33 @@ def balance(
     support = dynamics.support(poses, contacts)  # where the planted feet are, and will be put back
     com, pressure = dynamics.centroidal(poses, fps)
     margins = {"before": support.margin(pressure)}
-    anchors = solver.planted_ankles(q, rotations, positions, contacts)
+    ankles = solver.ankles(q, rotations, positions)
+    carried = 1.0  # how far the centre of mass moves with the body: the feet stay, the legs follow in part
     for passes in BALANCE_ROUNDS:
-        shift = balancing_shift(support, com, pressure, fps, passes)
+        shift = balancing_shift(support, com, pressure, fps, passes) / carried
         if not np.any(np.abs(shift) > 1e-4):
             break
-        shift = np.c_[shift, np.zeros(len(q))]
-        positions = solver.move_body(q, rotations, positions, contacts, fixed, shift, anchors)
+        shift = np.c_[capped(shift, MOST_MOVED), np.zeros(len(q))]
+        positions = solver.move_body(q, rotations, positions, contacts, fixed, shift, ankles, fps)
         poses = dynamics.poses(q, rotations, positions)
         support = dynamics.support(poses, contacts)
-        com, pressure = dynamics.centroidal(poses, fps)
+        moved_com, pressure = dynamics.centroidal(poses, fps)
+        carried = float(np.clip(np.sum((moved_com - com) * shift) / np.sum(shift * shift), *CARRIED))
+        com = moved_com
     margins["after"] = support.margin(pressure)
     return positions, margins
+
+
+def _near_contact(planted: np.ndarray, fade: float) -> np.ndarray:
+    """Per frame, exp(-d / fade), d: the frames to the nearest planted one (0 with none planted)."""
+    where = np.flatnonzero(planted)
+    if not len(where):
+        return np.zeros(len(planted))
+    frames = np.arange(len(planted))
+    after = np.clip(np.searchsorted(where, frames), 0, len(where) - 1)
+    before = np.clip(after - 1, 0, len(where) - 1)
+    distance = np.minimum(np.abs(where[after] - frames), np.abs(frames - where[before]))
+    return np.exp(-distance / max(fade, 1e-9))
 
 
 def _take(fixed: dict, index: np.ndarray) -> dict:
