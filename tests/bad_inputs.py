@@ -861,6 +861,9 @@ OTHER_CLI = {
     "bench_retarget_pairs_negative": ("hotu_drake.bench", ["retarget", "--peer", "mink", "--pairs", "-1"], "--pairs"),
     "bench_readers_missing_input": ("hotu_drake.bench", ["readers", "--input", "/nonexistent/walk.bvh"], "walk.bvh"),
     "bench_readers_repeats_zero": ("hotu_drake.bench", ["readers", "--repeats", "0"], "--repeats"),
+    "bench_clips_unknown_motion": ("hotu_drake.bench", ["clips", "--motions", "moonwalk"], "moonwalk"),
+    "bench_clips_missing_input": ("hotu_drake.bench", ["clips", "--motions", "--input", "/nonexistent/w.bvh"], "w.bvh"),
+    "bench_clips_unknown_robot": ("hotu_drake.bench", ["clips", "--robots", "atlas"], "atlas"),
     "models_export_unknown": ("hotu_drake.models", ["export", "atlas", "--format", "sdf", "--out", "x.sdf"], "atlas"),
     "models_export_height_negative": (
         "hotu_drake.models",

@@ -2,6 +2,7 @@
 soles, the balance pass that brings it inside, and the torques it asks."""
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
@@ -168,3 +169,16 @@ def test_the_balance_pass_keeps_a_capture_s_feet_where_they_land():
     for name, stage in (("udh", udh), ("h1", h1)):
         skate = report(source, stage.clip, embodiment.load(name, "none"), 1.0)["foot_skate_m_per_s"]
         assert skate < 0.125, (name, skate)
+
+
+def test_bench_clips_reports_stance_balance_and_torques_per_robot(capsys):
+    from hotu_drake.bench import __main__ as bench
+
+    assert bench.main(["clips", "--motions", "squat", "--robots", "udh", "h1", "--markdown"]) == 0
+    captured = capsys.readouterr()
+    rows = json.loads(captured.out)["rows"]
+    assert [(row["clip"], row["robot"]) for row in rows] == [("squat", "udh"), ("squat", "h1")]
+    for row in rows:  # a squat: both feet down, the robot over them, at its own width
+        assert row["stance_ratio"]["median"] > 0.9 and row["leg_penetration_m"] <= 0.005
+        assert row["centre_of_pressure_margin"]["after"]["inside_share"] > 0.95
+    assert "| squat | h1 |" in captured.err
