@@ -14,6 +14,7 @@ from hotu_drake.motion.load import load_motion
 from hotu_drake.retarget.balance import (
     MOST_MOVED,
     ClipBalance,
+    Support,
     TorqueDemand,
     balancing_shift,
     desired_pressure,
@@ -182,3 +183,15 @@ def test_bench_clips_reports_stance_balance_and_torques_per_robot(capsys):
         assert row["stance_ratio"]["median"] > 0.9 and row["leg_penetration_m"] <= 0.005
         assert row["centre_of_pressure_margin"]["after"]["inside_share"] > 0.95
     assert "| squat | h1 |" in captured.err
+
+
+def test_a_support_s_margin_over_its_hull_edges_is_the_signed_distance():
+    rng = np.random.default_rng(0)
+    for trial in range(60):
+        points = 0.2 * rng.normal(size=(40, int(rng.integers(2, 9)), 2))
+        if trial % 3 == 0:
+            points[:, :, 1] = 0.0  # on a line: no inside
+        down = rng.random(points.shape[:2]) < 0.6
+        pressure = 0.3 * rng.normal(size=(40, 2))
+        margin, expected = Support(points, down, 0.01).margin(pressure), signed_distances(points, down, pressure)
+        np.testing.assert_allclose(margin, expected + 0.01, rtol=0, atol=1e-12)

@@ -111,9 +111,31 @@ class Support:
     def edges(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         return hull_edges(self.points, self.down)
 
+    @cached_property
+    def _hulls(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Each frame's hull edges alone (starts and directions (T, H, 2),
+        which are real (T, H)), and the frames whose support has an inside."""
+        a, edge, hull, _ = self.edges
+        order = np.argsort(~hull, axis=1, kind="stable")[:, : max(1, int(hull.sum(axis=1).max()))]
+        pick = lambda x: np.take_along_axis(x, order[..., None] if x.ndim == 3 else order, axis=1)  # noqa: E731
+        return pick(a), pick(edge), pick(hull), hull.any(axis=1)
+
     def margin(self, pressure: np.ndarray) -> np.ndarray:
-        """Per frame, how far (m) `pressure` (T, 2) lies inside (negative: outside; NaN with no foot down)."""
-        return signed_distances(self.points, self.down, pressure, self.edges) + self.radius
+        """Per frame, how far (m) `pressure` (T, 2) lies inside (negative: outside; NaN with no foot down).
+        The same as `signed_distances`, over each frame's hull edges only."""
+        a, edge, real, has_inside = self._hulls
+        out = np.full(len(pressure), np.nan)
+        length = np.maximum(np.einsum("tei,tei->te", edge, edge), 1e-18)
+        s = np.clip(np.einsum("tei,tei->te", pressure[:, None] - a, edge) / length, 0.0, 1.0)
+        distance = np.where(real, np.linalg.norm(pressure[:, None] - (a + s[..., None] * edge), axis=-1), np.inf)
+        left = edge[..., 0] * (pressure[:, None, 1] - a[..., 1]) - edge[..., 1] * (pressure[:, None, 0] - a[..., 0])
+        inside = np.all(np.where(real, left >= 0.0, True), axis=1)
+        nearest = distance.min(axis=1, initial=np.inf)
+        out[has_inside] = np.where(inside, nearest, -nearest)[has_inside]
+        rest = ~has_inside & self.down.any(axis=1)  # one point, or points on a line: no inside
+        if rest.any():
+            out[rest] = signed_distances(self.points[rest], self.down[rest], pressure[rest])
+        return out + self.radius
 
 
 def shifted_pressure(com: np.ndarray, pressure: np.ndarray, shift: np.ndarray, fps: float) -> np.ndarray:
@@ -194,15 +216,19 @@ STEP_FRACTIONS = (1.0, 0.5, 0.25)  # of the planner's shift, tried in turn until
 SETTLED = 1e-3  # m: the passes stop once no frame's centre of pressure is to move further than this
 
 
-def desired_pressure(support: Support, pressure: np.ndarray, margin: float = MARGIN) -> np.ndarray:
+def desired_pressure(
+    support: Support, pressure: np.ndarray, margin: float = MARGIN, margins: np.ndarray | None = None
+) -> np.ndarray:
     """The centre of pressure (T, 2) brought `margin` inside the planted
     soles' `support` where it was not: moved from p towards the soles'
     centre c just as far as needed (the first point of the segment c -> p,
     from p's end, inside every hull edge by `margin`), by at most
-    `MOST_MOVED`; unchanged with no foot down."""
+    `MOST_MOVED`; unchanged with no foot down. `margins`: the pressure's
+    `Support.margin`, when known."""
     points, down, radius = support.points, support.down, support.radius
     out = pressure.copy()
-    needed = np.flatnonzero(support.margin(pressure) < margin)  # NaN compares False
+    margins = support.margin(pressure) if margins is None else margins
+    needed = np.flatnonzero(margins < margin)  # NaN compares False
     if not len(needed):
         return out
     points, down, pressure = points[needed], down[needed], pressure[needed]
@@ -253,19 +279,20 @@ def balancing_shift(
     At most `passes` passes; fewer once nothing is left to move or no step
     helps. No frame is moved further than `MOST_MOVED`."""
     shift = np.zeros((len(com), 2))
-    moved = pressure
-    left = shortfall(support, moved)
+    moved, margins = pressure, support.margin(pressure)
+    left = _shortfall(margins)
     for _ in range(passes):
-        desired = desired_pressure(support, moved)
+        desired = desired_pressure(support, moved, margins=margins)
         if np.max(np.abs(desired - moved), initial=0.0) < SETTLED:
             break
         step = centre_of_mass_shift(com, moved, desired, fps)
         for fraction in STEP_FRACTIONS:
             trial = capped(shift + fraction * step, MOST_MOVED)
             trial_pressure = shifted_pressure(com, pressure, trial, fps)
-            trial_left = shortfall(support, trial_pressure)
+            trial_margins = support.margin(trial_pressure)
+            trial_left = _shortfall(trial_margins)
             if trial_left < left:
-                shift, moved, left = trial, trial_pressure, trial_left
+                shift, moved, margins, left = trial, trial_pressure, trial_margins, trial_left
                 break
         else:
             break
@@ -275,7 +302,11 @@ def balancing_shift(
 def shortfall(support: Support, pressure: np.ndarray) -> float:
     """How far (m, summed over the supported frames) the centre of pressure
     is from `MARGIN` inside the support, each frame counting `MOST_MOVED` at most."""
-    return float(np.nansum(np.clip(MARGIN - support.margin(pressure), 0.0, MOST_MOVED)))
+    return _shortfall(support.margin(pressure))
+
+
+def _shortfall(margins: np.ndarray) -> float:
+    return float(np.nansum(np.clip(MARGIN - margins, 0.0, MOST_MOVED)))
 
 
 def capped(vectors: np.ndarray, longest: float) -> np.ndarray:
