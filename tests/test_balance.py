@@ -98,8 +98,10 @@ def test_the_balance_pass_brings_the_walk_over_the_feet():
         stage = to_robot(walk, robot, "none")
         before, after = (stage.margins[k][~np.isnan(stage.margins[k])] for k in ("before", "after"))
         inside, was = np.mean(after >= 0), np.mean(before >= 0)
-        # Measured: 0.31-0.74 before, 0.98-0.99 after (BRUCE's line feet too).
-        assert inside >= 0.95 and inside > was + 0.2, (robot, was, inside)
+        # Measured: 0.35-0.74 before, 0.96-0.99 after (BRUCE's line feet too). The pass takes discrete
+        # decisions (a step or half of it, a round or not), so a clip's share can move by a few hundredths
+        # with the last bits of the arithmetic: the test asks 0.92 (BRUCE was 0.77 before the pass of 2026-11-25).
+        assert inside >= 0.92 and inside > was + 0.2, (robot, was, inside)
         unbalanced = to_robot(walk, robot, "none", RetargetOptions(balance=False))
         assert unbalanced.margins == {}
 
@@ -141,6 +143,10 @@ def test_the_filter_takes_only_steps_that_help_on_a_noisy_centre_of_pressure():
     assert shortfall(support, after) < 0.76 * shortfall(support, pressure)
     assert np.linalg.norm(shift, axis=1).max() <= MOST_MOVED + 1e-9
     assert np.mean(support.margin(after)[20:50] >= 0.0) > np.mean(support.margin(pressure)[20:50] >= 0.0)
+    # A frame without a centre of pressure (no lift: a fall) is left out, not spread over the clip as NaN.
+    pressure[100] = np.nan
+    shift = balancing_shift(support, com, pressure, clip.fps)
+    assert np.isfinite(shift).all() and np.abs(shift[20:50]).max() > 0.01
 
 
 def test_a_foot_is_planted_from_its_heel_landing_to_its_toe_pushing_off():
@@ -152,7 +158,7 @@ def test_a_foot_is_planted_from_its_heel_landing_to_its_toe_pushing_off():
     toe[:, 0] = 0.15
     # Frames 0-19: the heel still as the toe comes down; 20-59 flat and still; 60-79: the heel rises and swings
     # forward about the still toe.
-    toe[:20, 0] = 0.15 + 1.0 * (t[:20] - t[20])  # the toe sweeping down onto the floor at 1 m/s
+    toe[:20, 0] = 0.15 + 1.0 * (t[:20] - t[20])  # the toe still swinging forward at 1 m/s, the heel down
     heel[60:, 0] = 2.0 * (t[60:] - t[60])
     heel[60:, 2] = 0.07 + 0.5 * (t[60:] - t[60])
     still = {"toe": np.tile([0.0, 0.3, 0.02], (frames, 1)), "ankle": np.tile([-0.15, 0.3, 0.07], (frames, 1))}
@@ -172,9 +178,10 @@ def test_the_balance_pass_keeps_a_capture_s_feet_where_they_land():
         assert skate < 0.125, (name, skate)
 
 
-def test_bench_clips_reports_stance_balance_and_torques_per_robot(capsys):
+def test_bench_clips_reports_stance_balance_and_torques_per_robot(capsys, monkeypatch):
     from hotu_drake.bench import __main__ as bench
 
+    monkeypatch.setattr(bench, "pin_to_one_core", lambda: None)  # not this test process for good
     assert bench.main(["clips", "--motions", "squat", "--robots", "udh", "h1", "--markdown"]) == 0
     captured = capsys.readouterr()
     rows = json.loads(captured.out)["rows"]

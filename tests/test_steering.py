@@ -68,5 +68,6 @@ def test_the_vocabulary_retargets_to_every_robot_within_limits_and_legs_apart(cl
         assert contacts.depths(stage.clip).max() <= 0.005, (robot, name)
         before, after = (stage.margins[k][~np.isnan(stage.margins[k])] for k in ("before", "after"))
         inside, was = np.mean(after >= 0.0), np.mean(before >= 0.0)
-        # After the pass: 0.955-1.0 on every motion and robot (walk_fast on H1 0.967, walk_backward on BRUCE 0.955).
-        assert inside >= 0.93 and (inside > was + 0.1 or inside > 0.95), (robot, name, was, inside)
+        # After the pass: 0.962-1.0 on every motion and robot (BRUCE's walk_fast 0.967 the least); a clip's
+        # share can move by a few hundredths with the last bits of the arithmetic (see test_balance).
+        assert inside >= 0.92 and (inside > was + 0.1 or inside > 0.95), (robot, name, was, inside)

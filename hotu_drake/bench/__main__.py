@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 
 from hotu_drake import embodiment
-from hotu_drake.bench.clips import LEGGED
+from hotu_drake.bench.clips import LEGGED, clip_rows, markdown, source
 from hotu_drake.bench.clips import LIBRARY as LIBRARY_CLIPS
 from hotu_drake.bench.standing import machine, one_core, pin_to_one_core, standing_realtime_factor
 from hotu_drake.cli import ArgumentParser, positive_float, run_cli
@@ -306,7 +306,6 @@ def _readers(args) -> int:
 
 
 def _clips(args) -> int:
-    from hotu_drake.bench.clips import clip_rows, markdown, source
     from hotu_drake.motion.library import MOTIONS
 
     for name in args.motions:
@@ -316,8 +315,8 @@ def _clips(args) -> int:
         if not Path(path).is_file():
             raise InputError(f"{path}: no such file")
     for robot in args.robots:
-        if robot not in embodiment.EMBODIMENT_NAMES:
-            raise InputError(f"--robots: {robot!r} is not an embodiment")
+        if robot not in LEGGED:
+            raise InputError(f"--robots: {robot!r} is not a legged embodiment ({', '.join(LEGGED)})")
     pin_to_one_core()
     rows = []
     for name in [*args.motions, *args.input]:
@@ -396,7 +395,7 @@ def main(argv: list[str] | None = None) -> int:
     clips = sub.add_parser("clips", help="stance, legs apart, balance and torques of retargeted clips per robot")
     clips.add_argument("--motions", nargs="*", default=list(LIBRARY_CLIPS), help="library motions (issue 27's)")
     clips.add_argument("--input", nargs="*", default=[], help="motion files (BVH, C3D, .npz) to retarget too")
-    clips.add_argument("--robots", nargs="+", default=list(LEGGED), help="embodiments (default: the legged ones)")
+    clips.add_argument("--robots", nargs="+", default=list(LEGGED), help="legged embodiments (default: all of them)")
     clips.add_argument("--markdown", action="store_true", help="also print a Markdown table on stderr")
     args = parser.parse_args(argv)
     if args.command == "clips":

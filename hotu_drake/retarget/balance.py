@@ -58,9 +58,8 @@ class ClipBalance:
         world_inertia = poses.rotations @ self.inertias @ np.swapaxes(poses.rotations, -1, -2)
         momentum = np.einsum("l,tli->ti", self.masses, np.cross(centers - com[:, None], velocity))
         momentum += np.einsum("tlij,tlj->ti", world_inertia, omega)
-        window = max(1, int(round(SMOOTHING * fps)))
-        acceleration = np.gradient(np.gradient(smooth(com, window), dt, axis=0), dt, axis=0)
-        torque = np.gradient(smooth(momentum, window), dt, axis=0)  # L' about the centre of mass
+        acceleration = smoothed_rate(com, fps, 2)
+        torque = smoothed_rate(momentum, fps, 1)  # L' about the centre of mass
         lift = acceleration[:, 2] + GRAVITY
         pressure = np.column_stack(
             (
@@ -116,21 +115,18 @@ class Support:
         """Each frame's hull edges alone (starts and directions (T, H, 2),
         which are real (T, H)), and the frames whose support has an inside."""
         a, edge, hull, _ = self.edges
-        order = np.argsort(~hull, axis=1, kind="stable")[:, : max(1, int(hull.sum(axis=1).max()))]
-        pick = lambda x: np.take_along_axis(x, order[..., None] if x.ndim == 3 else order, axis=1)  # noqa: E731
-        return pick(a), pick(edge), pick(hull), hull.any(axis=1)
+        order = np.argsort(~hull, axis=1, kind="stable")[:, : max(1, int(hull.sum(axis=1).max(initial=0)))]
+        return _take_edges(a, order), _take_edges(edge, order), _take_edges(hull, order), hull.any(axis=1)
 
     def margin(self, pressure: np.ndarray) -> np.ndarray:
-        """Per frame, how far (m) `pressure` (T, 2) lies inside (negative: outside; NaN with no foot down).
-        The same as `signed_distances`, over each frame's hull edges only."""
+        """Per frame, how far (m) `pressure` (T, 2) lies inside, the contact
+        radius included (negative: outside; NaN with no foot down):
+        `signed_distances` plus the radius, over each frame's hull edges only."""
         a, edge, real, has_inside = self._hulls
         out = np.full(len(pressure), np.nan)
-        length = np.maximum(np.einsum("tei,tei->te", edge, edge), 1e-18)
-        s = np.clip(np.einsum("tei,tei->te", pressure[:, None] - a, edge) / length, 0.0, 1.0)
-        distance = np.where(real, np.linalg.norm(pressure[:, None] - (a + s[..., None] * edge), axis=-1), np.inf)
-        left = edge[..., 0] * (pressure[:, None, 1] - a[..., 1]) - edge[..., 1] * (pressure[:, None, 0] - a[..., 0])
+        distance, left = _to_segments(pressure, a, edge)
         inside = np.all(np.where(real, left >= 0.0, True), axis=1)
-        nearest = distance.min(axis=1, initial=np.inf)
+        nearest = np.where(real, distance, np.inf).min(axis=1, initial=np.inf)
         out[has_inside] = np.where(inside, nearest, -nearest)[has_inside]
         rest = ~has_inside & self.down.any(axis=1)  # one point, or points on a line: no inside
         if rest.any():
@@ -138,16 +134,39 @@ class Support:
         return out + self.radius
 
 
+def _take_edges(values: np.ndarray, order: np.ndarray) -> np.ndarray:
+    """Per frame, the edges (T, E, ...) in `order` (T, H)."""
+    return np.take_along_axis(values, order[..., None] if values.ndim == 3 else order, axis=1)
+
+
+def _to_segments(p: np.ndarray, a: np.ndarray, edge: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each frame's `p` (T, 2) against segments from a (T, E, 2) along
+    `edge` (T, E, 2): its distance to each (T, E), and which side of each
+    line it is on (T, E; > 0: left)."""
+    length = np.maximum(np.einsum("tei,tei->te", edge, edge), 1e-18)
+    s = np.clip(np.einsum("tei,tei->te", p[:, None] - a, edge) / length, 0.0, 1.0)
+    distance = np.linalg.norm(p[:, None] - (a + s[..., None] * edge), axis=-1)
+    left = edge[..., 0] * (p[:, None, 1] - a[..., 1]) - edge[..., 1] * (p[:, None, 0] - a[..., 0])
+    return distance, left
+
+
 def shifted_pressure(com: np.ndarray, pressure: np.ndarray, shift: np.ndarray, fps: float) -> np.ndarray:
     """The centre of pressure (T, 2) of a clip whose every link is moved
     sideways by `shift` (T, 2): the angular momentum about the centre of
     mass is unchanged by a common translation, so only the centre of mass
     (T, 3) and its acceleration change (smoothed as `centroidal` smooths)."""
-    dt = 1.0 / fps
-    window = max(1, int(round(SMOOTHING * fps)))
-    lift = np.gradient(np.gradient(smooth(com[:, 2], window), dt), dt) + GRAVITY
-    pushed = np.gradient(np.gradient(smooth(shift, window), dt, axis=0), dt, axis=0)
-    return pressure + shift - com[:, 2:3] * pushed / lift[:, None]
+    lift = smoothed_rate(com[:, 2], fps, 2) + GRAVITY
+    return pressure + shift - com[:, 2:3] * smoothed_rate(shift, fps, 2) / lift[:, None]
+
+
+def smoothed_rate(values: np.ndarray, fps: float, order: int) -> np.ndarray:
+    """The first or second time derivative (`order`) of `values` (T, ...)
+    averaged over `SMOOTHING` first: the centroidal figures' one way of
+    differentiating a clip."""
+    rate = smooth(values, max(1, int(round(SMOOTHING * fps))))
+    for _ in range(order):
+        rate = np.gradient(rate, 1.0 / fps, axis=0)
+    return rate
 
 
 def smooth(values: np.ndarray, window: int) -> np.ndarray:
@@ -188,16 +207,12 @@ def hull_edges(points: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.nd
     return a, edge, hull, usable
 
 
-def signed_distances(points: np.ndarray, valid: np.ndarray, p: np.ndarray, edges=None) -> np.ndarray:
+def signed_distances(points: np.ndarray, valid: np.ndarray, p: np.ndarray) -> np.ndarray:
     """How far each frame's `p` (T, 2) lies inside the convex hull of its
     valid points (T, K, 2) (negative: outside; a hull of collinear points
-    has no inside; NaN with no valid point); `edges`: their `hull_edges`,
-    when known."""
-    a, edge, hull, usable = hull_edges(points, valid) if edges is None else edges
-    length = np.maximum(np.einsum("tei,tei->te", edge, edge), 1e-18)
-    s = np.clip(np.einsum("tei,tei->te", p[:, None] - a, edge) / length, 0.0, 1.0)
-    distance = np.linalg.norm(p[:, None] - (a + s[..., None] * edge), axis=-1)  # (T, E) to each segment
-    left = edge[..., 0] * (p[:, None, 1] - a[..., 1]) - edge[..., 1] * (p[:, None, 0] - a[..., 0])
+    has no inside; NaN with no valid point)."""
+    a, edge, hull, usable = hull_edges(points, valid)
+    distance, left = _to_segments(p, a, edge)
     flat = ~hull.any(axis=1)  # one point, or all on a line: the distance to the points' segment, outside
     nearest_edge = np.where(hull, distance, np.inf).min(axis=1)
     inside = np.all(np.where(hull, left >= 0.0, True), axis=1) & ~flat
@@ -211,23 +226,25 @@ def signed_distances(points: np.ndarray, valid: np.ndarray, p: np.ndarray, edges
 MARGIN = 0.03  # m: how far inside the support the balance pass asks the centre of pressure to be
 MOST_MOVED = 0.15  # m: the furthest the pass moves a frame's centre of pressure, or its body (a fall: only this far)
 TRACKING = 1e-4  # the planner's cost of centre-of-mass acceleration against centre-of-pressure error (Drake: 0.1)
-PASSES = 12  # the planner's pendulum is not the clip's (height varies, pressure smoothed): passes take up the rest
+# The filter's passes when called alone (the balance pass sets its own per round, `clip_programs.BALANCE_ROUNDS`):
+# the planner's pendulum is not the clip's (its height varies, its pressure is smoothed); passes take up the rest.
+PASSES = 12
 STEP_FRACTIONS = (1.0, 0.5, 0.25)  # of the planner's shift, tried in turn until one helps
 SETTLED = 1e-3  # m: the passes stop once no frame's centre of pressure is to move further than this
 
 
 def desired_pressure(
-    support: Support, pressure: np.ndarray, margin: float = MARGIN, margins: np.ndarray | None = None
+    support: Support, pressure: np.ndarray, margin: float = MARGIN, known: np.ndarray | None = None
 ) -> np.ndarray:
     """The centre of pressure (T, 2) brought `margin` inside the planted
     soles' `support` where it was not: moved from p towards the soles'
     centre c just as far as needed (the first point of the segment c -> p,
     from p's end, inside every hull edge by `margin`), by at most
-    `MOST_MOVED`; unchanged with no foot down. `margins`: the pressure's
-    `Support.margin`, when known."""
+    `MOST_MOVED`; unchanged with no foot down. `known`: the pressure's
+    `Support.margin`, when already found."""
     points, down, radius = support.points, support.down, support.radius
     out = pressure.copy()
-    margins = support.margin(pressure) if margins is None else margins
+    margins = support.margin(pressure) if known is None else known
     needed = np.flatnonzero(margins < margin)  # NaN compares False
     if not len(needed):
         return out
@@ -277,12 +294,18 @@ def balancing_shift(
     quarter) if that leaves less `shortfall`: the planner's pendulum is not
     the clip's, and on a noisy capture a whole step can make things worse.
     At most `passes` passes; fewer once nothing is left to move or no step
-    helps. No frame is moved further than `MOST_MOVED`."""
+    helps. No frame is moved further than `MOST_MOVED`; frames without a
+    finite centre of pressure are left out."""
     shift = np.zeros((len(com), 2))
+    usable = np.isfinite(pressure).all(axis=1) & np.isfinite(com).all(axis=1)
+    if not usable.all():  # a frame without a centre of pressure (a fall: no lift) is not the filter's to move
+        support = Support(support.points, support.down & usable[:, None], support.radius)
+        com = np.where(usable[:, None], com, np.nan_to_num(com))
+        pressure = np.where(usable[:, None], pressure, com[:, :2])
     moved, margins = pressure, support.margin(pressure)
     left = _shortfall(margins)
     for _ in range(passes):
-        desired = desired_pressure(support, moved, margins=margins)
+        desired = desired_pressure(support, moved, known=margins)
         if np.max(np.abs(desired - moved), initial=0.0) < SETTLED:
             break
         step = centre_of_mass_shift(com, moved, desired, fps)
@@ -291,7 +314,7 @@ def balancing_shift(
             trial_pressure = shifted_pressure(com, pressure, trial, fps)
             trial_margins = support.margin(trial_pressure)
             trial_left = _shortfall(trial_margins)
-            if trial_left < left:
+            if trial_left < left and np.isfinite(trial).all():
                 shift, moved, margins, left = trial, trial_pressure, trial_margins, trial_left
                 break
         else:

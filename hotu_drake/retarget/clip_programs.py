@@ -25,6 +25,11 @@ streaming path does), and the legs' program holds each planted ankle on
 its anchor with its sole level over each contact phase, along with the
 legs' own targets.
 
+Balance (`balance`, on legged robots with a floating base): the body is
+shifted sideways so that the clip's centre of pressure comes inside its
+planted soles (a ZMP filter through Drake's `ZmpPlanner`, `balance.py`),
+and the legs' program puts the planted feet back, in a few rounds.
+
 The solvers read the parts, targets, root path and leg locks of the
 `retargeter.Retargeter` that calls them (`retarget_clip`); that module
 imports this one, so this one names it in prose only.
@@ -48,8 +53,10 @@ from hotu_drake.rotations import heading_rotation, normalize
 DRIFT_SMOOTHING = 0.2
 # The balance pass: rounds of the ZMP filter (at most this many passes each) and of the legs' program.
 BALANCE_ROUNDS = (8, 4, 4)
-# The share of the body's shift its centre of mass was measured to follow is taken within these bounds.
+# The share of the body's shift its centre of mass was measured to follow is taken within these bounds,
+# from a round that moved the body by at least this much (m, root mean square over the frames).
 CARRIED = (0.5, 1.0)
+MEASURABLE = 0.005
 # The legs' program: weights of a planted ankle's distance (m) from its anchor
 # and of its sole's tilt (rad), against the legs' direction targets (1 each).
 ANCHOR_WEIGHT = 100.0
@@ -535,8 +542,9 @@ def balance(
     the legs' program putting the planted feet back where they were; in
     `BALANCE_ROUNDS` rounds, each filtering the body the last one left
     (the legs do not move quite as a translated body would, and the feet
-    may settle by a few millimetres). Returns the root positions and the
-    support margins (m, per frame) before and after."""
+    may settle by a few millimetres); the body moves `balance.MOST_MOVED`
+    at most over all rounds. Returns the root positions and the support
+    margins (m, per frame) before and after."""
     dynamics = solver.r.balance
     poses = dynamics.poses(q, rotations, positions)
     support = dynamics.support(poses, contacts)  # where the planted feet are, and will be put back
@@ -544,23 +552,28 @@ def balance(
     margins = {"before": support.margin(pressure)}
     ankles = solver.ankles(q, rotations, positions)
     carried = 1.0  # how far the centre of mass moves with the body: the feet stay, the legs follow in part
+    total = np.zeros((len(q), 2))
     for passes in BALANCE_ROUNDS:
         shift = balancing_shift(support, com, pressure, fps, passes) / carried
+        shift = capped(total + shift, MOST_MOVED) - total
         if not np.any(np.abs(shift) > 1e-4):
             break
-        shift = np.c_[capped(shift, MOST_MOVED), np.zeros(len(q))]
+        total += shift
+        shift = np.c_[shift, np.zeros(len(q))]
         positions = solver.move_body(q, rotations, positions, contacts, fixed, shift, ankles, fps)
         poses = dynamics.poses(q, rotations, positions)
         support = dynamics.support(poses, contacts)
         moved_com, pressure = dynamics.centroidal(poses, fps)
-        carried = float(np.clip(np.sum((moved_com - com) * shift) / np.sum(shift * shift), *CARRIED))
+        moved = np.sum(shift * shift)
+        if moved > MEASURABLE**2 * len(q):  # a round that hardly moved the body says little about how it follows
+            carried = float(np.clip(np.sum((moved_com - com) * shift) / moved, *CARRIED))
         com = moved_com
     margins["after"] = support.margin(pressure)
     return positions, margins
 
 
 def _near_contact(planted: np.ndarray, fade: float) -> np.ndarray:
-    """Per frame, exp(-d / fade), d: the frames to the nearest planted one (0 with none planted)."""
+    """Per frame, exp(-d / fade), d: the frames to the nearest planted one (with none planted, 0 everywhere)."""
     where = np.flatnonzero(planted)
     if not len(where):
         return np.zeros(len(planted))

@@ -6,9 +6,9 @@ from hotu_drake.embodiment.spec import EmbodimentSpec
 from hotu_drake.retarget.tree import Pose, Tree
 
 CONTACT_HEIGHT = 0.04  # m above the clip's floor
-CONTACT_SPEED = 0.12  # m/s horizontal, of the foot's stiller end (heel or toe)
+CONTACT_SPEED = 0.12  # m/s horizontal, of the foot's stiller end (the ankle's landmark or the toe's)
 MIN_PHASE_FRAMES = 3
-MIN_PHASE_SECONDS = 0.05  # and no contact or flight phase shorter than this
+MIN_PHASE_SECONDS = 0.05  # and no contact or flight phase shorter than this (but at the clip's ends)
 
 
 def _clean(flags: np.ndarray, min_frames: int) -> np.ndarray:
