@@ -13,6 +13,12 @@ A robot can only press where its planted soles are: `support_margin` is
 the signed distance of p inside the convex hull of the planted soles'
 contact points (negative: outside, where the robot would tip), over every
 frame with a foot on the floor.
+
+Where it is not inside, the balance pass of whole-clip retargeting
+(`clip_programs.balance`) moves the body sideways by the ZMP filter here
+(`balancing_shift`: Drake's `ZmpPlanner` on how far the centre of
+pressure is to move). `TorqueDemand` gives what each joint would have to
+exert, from Drake's inverse dynamics.
 """
 
 from __future__ import annotations
@@ -259,7 +265,6 @@ def desired_pressure(
     step = np.clip(reach, 0.0, 1.0)
     moved = centre + step[:, None] * (pressure - centre) - pressure
     out[needed] = pressure + capped(moved, MOST_MOVED)
-
     return out
 
 
