@@ -68,6 +68,6 @@ def test_the_vocabulary_retargets_to_every_robot_within_limits_and_legs_apart(cl
         assert contacts.depths(stage.clip).max() <= 0.005, (robot, name)
         before, after = (stage.margins[k][~np.isnan(stage.margins[k])] for k in ("before", "after"))
         inside, was = np.mean(after >= 0.0), np.mean(before >= 0.0)
-        # After the pass: 0.962-1.0 on every motion and robot (BRUCE's walk_fast 0.967 the least); a clip's
+        # After the pass: 0.967-1.0 on every motion and robot (BRUCE's walk_fast the least); a clip's
         # share can move by a few hundredths with the last bits of the arithmetic (see test_balance).
         assert inside >= 0.92 and (inside > was + 0.1 or inside > 0.95), (robot, name, was, inside)

@@ -51,8 +51,11 @@ from hotu_drake.rotations import heading_rotation, normalize
 
 # s: the window over which the root's drift correction (planted feet kept where they landed) is averaged.
 DRIFT_SMOOTHING = 0.2
-# The balance pass: rounds of the ZMP filter (at most this many passes each) and of the legs' program.
+# The balance pass: rounds of the ZMP filter (at most this many passes each) and of the legs' program;
+# a round after the first only while less than this share of the supported frames is inside (0.98: a
+# third of the walks' rounds are left out, and no locomotion clip on any robot ends below 0.96).
 BALANCE_ROUNDS = (8, 4, 4)
+ENOUGH_INSIDE = 0.98
 # The share of the body's shift its centre of mass was measured to follow is taken within these bounds,
 # from a round that moved the body by at least this much (m, root mean square over the frames).
 CARRIED = (0.5, 1.0)
@@ -542,7 +545,8 @@ def balance(
     the legs' program putting the planted feet back where they were; in
     `BALANCE_ROUNDS` rounds, each filtering the body the last one left
     (the legs do not move quite as a translated body would, and the feet
-    may settle by a few millimetres); the body moves `balance.MOST_MOVED`
+    may settle by a few millimetres), while fewer than `ENOUGH_INSIDE` of
+    the supported frames are inside; the body moves `balance.MOST_MOVED`
     at most over all rounds. Returns the root positions and the support
     margins (m, per frame) before and after."""
     dynamics = solver.r.balance
@@ -553,7 +557,9 @@ def balance(
     ankles = solver.ankles(q, rotations, positions)
     carried = 1.0  # how far the centre of mass moves with the body: the feet stay, the legs follow in part
     total = np.zeros((len(q), 2))
-    for passes in BALANCE_ROUNDS:
+    for index, passes in enumerate(BALANCE_ROUNDS):
+        if index and _inside_share(support.margin(pressure)) >= ENOUGH_INSIDE:
+            break
         shift = balancing_shift(support, com, pressure, fps, passes) / carried
         shift = capped(total + shift, MOST_MOVED) - total
         if not np.any(np.abs(shift) > 1e-4):
@@ -570,6 +576,12 @@ def balance(
         com = moved_com
     margins["after"] = support.margin(pressure)
     return positions, margins
+
+
+def _inside_share(margins: np.ndarray) -> float:
+    """The share of the supported frames (not NaN) whose centre of pressure is inside."""
+    supported = margins[~np.isnan(margins)]
+    return float(np.mean(supported >= 0.0)) if supported.size else 1.0
 
 
 def _near_contact(planted: np.ndarray, fade: float) -> np.ndarray:
