@@ -69,14 +69,6 @@ def check_coverage(names, source: str) -> list[str]:
     return covered
 
 
-def is_full_body(names) -> bool:
-    return set(REQUIRED_LANDMARKS) <= set(names)
-
-
-def finger_landmarks(side: str) -> list[str]:
-    return [f"{side}_{finger}_{i}" for finger in FINGERS for i in FINGER_POINTS]
-
-
 def pelvis_frames(landmarks: Mapping[str, np.ndarray]) -> np.ndarray:
     """(T, 3, 3) root orientation: y from the right to the left hip, z up the
     spine; for a capture without the pelvis, of the chest (y from the right
