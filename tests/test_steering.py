@@ -5,14 +5,12 @@ import pytest
 
 from hotu_drake import embodiment
 from hotu_drake.motion.library import generate_udh
+from hotu_drake.motion.library.steering import VOCABULARY
 from hotu_drake.retarget.pipeline import to_robot
 from hotu_drake.retarget.stance import LegContacts
 from hotu_drake.rotations import heading_yaw, quat_to_matrix
 
-STEERING = (
-    "walk_fast", "walk_turn_left", "walk_turn_right", "turn_in_place_left", "turn_in_place_right",
-    "sidestep_left", "sidestep_right", "walk_backward", "start_stop",
-)  # fmt: skip
+STEERING = tuple(VOCABULARY)
 
 
 @pytest.fixture(scope="module")

@@ -8,25 +8,13 @@ from pathlib import Path
 
 from hotu_drake import embodiment
 from hotu_drake.motion.clip import MotionClip
+from hotu_drake.motion.library.steering import VOCABULARY
 from hotu_drake.retarget.metrics import report
 from hotu_drake.retarget.pipeline import to_robot, to_udh
 
 LEGGED = ("udh", "h1", "naviai", "walker", "bruce")
 # The library's motions the acceptance names: walk, squat, the box carry and the steering vocabulary.
-LIBRARY = (
-    "walk",
-    "squat",
-    "box_carry",
-    "walk_fast",
-    "walk_turn_left",
-    "walk_turn_right",
-    "turn_in_place_left",
-    "turn_in_place_right",
-    "sidestep_left",
-    "sidestep_right",
-    "walk_backward",
-    "start_stop",
-)
+LIBRARY = ("walk", "squat", "box_carry", *VOCABULARY)
 
 
 def source(name: str) -> MotionClip:

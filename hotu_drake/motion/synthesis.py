@@ -444,9 +444,6 @@ def balanced_pelvis_path(
     Drake's `ZmpPlanner` (a linear inverted pendulum at the standing pelvis
     height, with its preview of the whole motion, from rest). The pelvis
     is taken to carry the centre of mass, as a standing person's does."""
-    from pydrake.planning import ZmpPlanner
-    from pydrake.trajectories import PiecewisePolynomial
-
     forward = np.column_stack([np.cos(heading), np.sin(heading)])
     middle = {s: feet[s][0][:, :2] + 0.04 * body.scale * forward for s in SIDES}  # the mid-foot, ahead of the ankle
     planted = np.column_stack([feet[s][0][:, 2] <= body.sole + 0.004 for s in SIDES]).astype(float)
@@ -454,15 +451,27 @@ def balanced_pelvis_path(
     weights = smooth(planted, fps, 0.05)
     weights /= weights.sum(axis=1, keepdims=True)
     pressure = sum(weights[:, i, None] * middle[s] for i, s in enumerate(SIDES))
+    return centre_of_mass_path(pressure, fps, body.leg_length(0.0))  # the pendulum's height: soles to hips
+
+
+def centre_of_mass_path(
+    pressure: np.ndarray, fps: float, height: float, start: np.ndarray | None = None, tracking: float = 1e-4
+) -> np.ndarray:
+    """The centre of mass path (T, 2) that puts the centre of pressure on
+    `pressure` (T, 2, one per frame): Drake's `ZmpPlanner`, a linear inverted
+    pendulum at `height` with its preview of the whole path, `tracking` its
+    cost of acceleration against pressure error; from `start` (x, y and
+    their rates; default: at rest over the first pressure)."""
+    from pydrake.planning import ZmpPlanner
+    from pydrake.trajectories import PiecewisePolynomial
+
     times = np.arange(len(pressure)) / fps
-    height = body.leg_length(0.0)  # above the soles, to the hips
-    planner = ZmpPlanner()
-    start = np.concatenate([pressure[0], np.zeros(2)])
+    start = np.concatenate([pressure[0], np.zeros(2)]) if start is None else start
     # Held for a second at its end: the planner wants a reference that ends at rest.
     reference = PiecewisePolynomial.FirstOrderHold(np.append(times, times[-1] + 1.0), np.c_[pressure.T, pressure[-1]])
-    planner.Plan(reference, start, height, GRAVITY, np.eye(2), 1e-4 * np.eye(2))
-    path = planner.get_nominal_com()
-    return np.array([path.value(t)[:, 0] for t in times])
+    planner = ZmpPlanner()
+    planner.Plan(reference, start, height, GRAVITY, np.eye(2), tracking * np.eye(2))
+    return planner.get_nominal_com().vector_values(times).T
 
 
 def smooth_under(limit: np.ndarray, fps: float, window: float = 0.12, sigma: float = 0.06) -> np.ndarray:

@@ -29,6 +29,7 @@ from functools import cached_property
 import numpy as np
 
 from hotu_drake.embodiment import Embodiment
+from hotu_drake.motion.synthesis import centre_of_mass_path
 from hotu_drake.retarget.contacts import Soles
 from hotu_drake.retarget.tree import Pose, Tree
 
@@ -271,21 +272,13 @@ def desired_pressure(
 def centre_of_mass_shift(com: np.ndarray, pressure: np.ndarray, desired: np.ndarray, fps: float) -> np.ndarray:
     """The horizontal shift (T, 2) of the centre of mass that moves the
     centre of pressure from `pressure` to `desired`: Drake's `ZmpPlanner` on
-    the difference (a linear inverted pendulum at the clip's mean height,
-    with its preview of the whole clip), from rest."""
-    from pydrake.planning import ZmpPlanner
-    from pydrake.trajectories import PiecewisePolynomial
-
-    times = np.arange(len(com)) / fps
-    change = (desired - pressure).T
+    the difference (`synthesis.centre_of_mass_path`: a linear inverted
+    pendulum at the clip's mean height, with its preview of the whole
+    clip), from rest."""
+    change = desired - pressure
     if not np.any(np.abs(change) > 1e-9):
         return np.zeros((len(com), 2))
-    planner = ZmpPlanner()
-    # Held for a second at its end: the planner wants a reference that ends at rest.
-    reference = PiecewisePolynomial.FirstOrderHold(np.append(times, times[-1] + 1.0), np.c_[change, change[:, -1]])
-    planner.Plan(reference, np.zeros(4), float(np.mean(com[:, 2])), GRAVITY, np.eye(2), TRACKING * np.eye(2))
-    trajectory = planner.get_nominal_com()
-    return trajectory.vector_values(times).T
+    return centre_of_mass_path(change, fps, float(np.mean(com[:, 2])), start=np.zeros(4), tracking=TRACKING)
 
 
 def balancing_shift(
@@ -325,6 +318,12 @@ def balancing_shift(
         else:
             break
     return shift
+
+
+def inside_share(margins: np.ndarray) -> float | None:
+    """The share of the supported frames (a margin, not NaN) whose centre of pressure is inside; None with none."""
+    supported = margins[~np.isnan(margins)]
+    return float(np.mean(supported >= 0.0)) if supported.size else None
 
 
 def shortfall(support: Support, pressure: np.ndarray) -> float:

@@ -43,7 +43,7 @@ import numpy as np
 from pydrake.solvers import MathematicalProgram, OsqpSolver, SolverOptions
 
 from hotu_drake.embodiment.spec import SIDES
-from hotu_drake.retarget.balance import MOST_MOVED, balancing_shift, capped, smooth
+from hotu_drake.retarget.balance import MOST_MOVED, balancing_shift, capped, inside_share, smooth
 from hotu_drake.retarget.part_ik import FINGER_LEVEL, SHAPE_TOLERANCE, TRUST_REGION
 from hotu_drake.retarget.targets import sideways_target
 from hotu_drake.retarget.tree import Pose
@@ -443,7 +443,7 @@ class ClipSolver:
         if not self.plants_feet:
             return positions
         poses = poses.translated(lift[:, None])  # moving the root moves every link alike
-        ankles = {side: r.marks.point_jacobian_frames(poses, f"{side}_ankle", [])[0] for side in r._lock}
+        ankles = self.ankles(poses)
         anchors = {side: np.full((self.frames, 3), np.nan) for side in r._lock}
         shift = np.zeros((self.frames, 3))
         current: dict[str, np.ndarray] = {}
@@ -468,9 +468,8 @@ class ClipSolver:
         positions[:, 2] += self._heights(self._lowest(self._poses(q, rotations, positions)), contacts)
         return positions
 
-    def ankles(self, q: np.ndarray, rotations: np.ndarray, positions: np.ndarray) -> dict[str, np.ndarray]:
-        """Each leg's ankle (T, 3) in the world."""
-        poses = self._poses(q, rotations, positions)
+    def ankles(self, poses: Pose) -> dict[str, np.ndarray]:
+        """Each leg's ankle (T, 3) in the world, of the body at `poses`."""
         return {side: self.r.marks.point_jacobian_frames(poses, f"{side}_ankle", [])[0] for side in self.r._lock}
 
     def move_body(
@@ -554,11 +553,12 @@ def balance(
     support = dynamics.support(poses, contacts)  # where the planted feet are, and will be put back
     com, pressure = dynamics.centroidal(poses, fps)
     margins = {"before": support.margin(pressure)}
-    ankles = solver.ankles(q, rotations, positions)
+    ankles = solver.ankles(solver._poses(q, rotations, positions))
     carried = 1.0  # how far the centre of mass moves with the body: the feet stay, the legs follow in part
     total = np.zeros((len(q), 2))
     for index, passes in enumerate(BALANCE_ROUNDS):
-        if index and _inside_share(support.margin(pressure)) >= ENOUGH_INSIDE:
+        share = inside_share(support.margin(pressure))
+        if index and (share is None or share >= ENOUGH_INSIDE):  # (no supported frame: nothing to move)
             break
         shift = balancing_shift(support, com, pressure, fps, passes) / carried
         shift = capped(total + shift, MOST_MOVED) - total
@@ -576,12 +576,6 @@ def balance(
         com = moved_com
     margins["after"] = support.margin(pressure)
     return positions, margins
-
-
-def _inside_share(margins: np.ndarray) -> float:
-    """The share of the supported frames (not NaN) whose centre of pressure is inside."""
-    supported = margins[~np.isnan(margins)]
-    return float(np.mean(supported >= 0.0)) if supported.size else 1.0
 
 
 def _near_contact(planted: np.ndarray, fade: float) -> np.ndarray:

@@ -14,7 +14,7 @@ from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import FINGER_POINTS, body_height, landmarks_of
 from hotu_drake.motion.udh_skeleton import points_on_clip
 from hotu_drake.retarget import frames
-from hotu_drake.retarget.balance import ClipBalance, TorqueDemand
+from hotu_drake.retarget.balance import ClipBalance, TorqueDemand, inside_share
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
 from hotu_drake.retarget.neutral import calibrate
 from hotu_drake.retarget.retargeter import Retargeter, foot_contacts_of, whole_finger_points
@@ -64,7 +64,7 @@ def _margin_figures(margins: np.ndarray) -> dict:
     if not supported.size:
         return {"inside_share": None, "median_m": None, "least_m": None}
     return {
-        "inside_share": round(float(np.mean(supported >= 0.0)), 4),
+        "inside_share": round(inside_share(supported), 4),
         "median_m": round(float(np.median(supported)), 4),
         "least_m": round(float(supported.min()), 4),
     }

@@ -21,17 +21,7 @@ from hotu_drake.motion.library.object_tasks import box_carry, box_carry_task, dr
 from hotu_drake.motion.library.planning import (
     Scene,
 )
-from hotu_drake.motion.library.steering import (
-    sidestep_left,
-    sidestep_right,
-    start_stop,
-    turn_in_place_left,
-    turn_in_place_right,
-    walk_backward,
-    walk_fast,
-    walk_turn_left,
-    walk_turn_right,
-)
+from hotu_drake.motion.library.steering import VOCABULARY
 from hotu_drake.motion.synthesis import (
     Body,
     Plan,
@@ -54,16 +44,7 @@ MOTIONS: tuple[str, ...] = (
     "thumbs_up",
     "box_carry",
     "drill_grasp",
-    # The steering vocabulary (`steering`).
-    "walk_fast",
-    "walk_turn_left",
-    "walk_turn_right",
-    "turn_in_place_left",
-    "turn_in_place_right",
-    "sidestep_left",
-    "sidestep_right",
-    "walk_backward",
-    "start_stop",
+    *VOCABULARY,  # the steering vocabulary (`steering`)
     # A task's demonstrations, one per seed (`box_carry_task@7`): drawn from the task environment's ranges.
     "box_carry_task",
     "drill_grasp_task",
@@ -118,15 +99,7 @@ _PLANNERS: dict[str, Callable[[Scene], Plan]] = {
     "thumbs_up": thumbs_up,
     "box_carry": box_carry,
     "drill_grasp": drill_grasp,
-    "walk_fast": walk_fast,
-    "walk_turn_left": walk_turn_left,
-    "walk_turn_right": walk_turn_right,
-    "turn_in_place_left": turn_in_place_left,
-    "turn_in_place_right": turn_in_place_right,
-    "sidestep_left": sidestep_left,
-    "sidestep_right": sidestep_right,
-    "walk_backward": walk_backward,
-    "start_stop": start_stop,
+    **VOCABULARY,
     "box_carry_task": box_carry_task,
     "drill_grasp_task": drill_grasp_task,
 }

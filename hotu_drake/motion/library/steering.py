@@ -9,6 +9,8 @@ its pelvis path to keep the centre of pressure on the feet
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from hotu_drake.motion.library.planning import Scene, arm_swing, plan_base, set_joints, stand
@@ -144,3 +146,17 @@ def start_stop(sc: Scene) -> Plan:
         np.array([[0.0, 0.0, 0.0], [3 * step, 0.0, 0.0]]), "right", 1.5, step_time, 0.78 * step_time, 4, sc.width
     )
     return _stepping(sc, steps, step, step_time)
+
+
+# The vocabulary by name, in the order the library lists it.
+VOCABULARY: dict[str, Callable[[Scene], Plan]] = {
+    "walk_fast": walk_fast,
+    "walk_turn_left": walk_turn_left,
+    "walk_turn_right": walk_turn_right,
+    "turn_in_place_left": turn_in_place_left,
+    "turn_in_place_right": turn_in_place_right,
+    "sidestep_left": sidestep_left,
+    "sidestep_right": sidestep_right,
+    "walk_backward": walk_backward,
+    "start_stop": start_stop,
+}
