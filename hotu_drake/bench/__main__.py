@@ -306,10 +306,10 @@ def _readers(args) -> int:
 
 
 def _clips(args) -> int:
-    from hotu_drake.motion.library import MOTIONS
+    from hotu_drake.motion.library import is_library_motion
 
     for name in args.motions:
-        if name not in MOTIONS:
+        if not is_library_motion(name):
             raise InputError(f"--motions: {name!r} is not a library motion")
     for path in args.input:
         if not Path(path).is_file():

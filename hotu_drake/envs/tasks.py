@@ -120,6 +120,10 @@ class _ObjectTaskEnv(DiagramEnv):
     def _scene_objects(self, obj: SceneObject) -> list[SceneObject]:
         return [obj]
 
+    def _bounds(self) -> dict[str, tuple[float, float]]:
+        """The task's ranges as (low, high), as the library's samplers take them."""
+        return {name: (r.low, r.high) for name, r in self.ranges.items()}
+
     @property
     def interaction_size(self) -> int:
         """The length of s_I (`info["interaction"]`)."""
@@ -280,8 +284,7 @@ class BoxCarryEnv(_ObjectTaskEnv):
         super().__init__(robot, hands, motions, obj, **options)
 
     def _sample_goal(self) -> tuple[RigidTransform, np.ndarray]:
-        ranges = {name: (r.low, r.high) for name, r in self.ranges.items()}
-        task = sample_box_carry(self.np_random, ranges)  # the library's demonstrations draw the same way
+        task = sample_box_carry(self.np_random, self._bounds())  # the library's demonstrations draw the same way
         return RigidTransform(RollPitchYaw(0.0, 0.0, task.start_yaw), list(task.start)), np.array(task.target)
 
     def _task_reward(self, info: dict) -> float:
@@ -344,8 +347,7 @@ class DrillGraspEnv(_ObjectTaskEnv):
         return [table, obj]
 
     def _sample_goal(self) -> tuple[RigidTransform, np.ndarray]:
-        ranges = {name: (r.low, r.high) for name, r in self.ranges.items()}
-        task = sample_drill_grasp(self.np_random, ranges, self.table_distance)  # as the library's demonstrations
+        task = sample_drill_grasp(self.np_random, self._bounds(), self.table_distance)  # as the library draws
         return RigidTransform(RollPitchYaw(0.0, 0.0, task.start_yaw), list(task.start)), np.array(task.target)
 
     def _task_reward(self, info: dict) -> float:
