@@ -136,11 +136,15 @@ def test_cmu_finger_channels_drive_the_finger_parts(tmp_path):
     assert figures["part_direction_error_deg"]["finger"]["mean"] < 20.0
 
 
-def test_root_heights_follow_the_frame_by_frame_rule():
-    """Planted soles on the floor, the offset held while no foot is planted,
-    and no sole below the floor: the vectorised offsets equal the rule's loop."""
+def test_root_heights_put_planted_soles_on_the_floor_without_a_jump():
+    """Planted soles on the floor (up to the averaging), joined straight
+    across frames with no foot planted, no sole ever below the floor; a
+    landing foot 3 cm higher than the one lifting does not drop the body
+    in one frame."""
+    from hotu_drake.retarget import clip_programs
     from hotu_drake.retarget.clip_programs import ClipSolver
 
+    fps = 100.0
     rng = np.random.default_rng(0)
     for _ in range(100):
         frames = int(rng.integers(1, 60))
@@ -148,14 +152,33 @@ def test_root_heights_follow_the_frame_by_frame_rule():
         contacts = {"left": rng.random(frames) < 0.4, "right": rng.random(frames) < 0.3}
         solver = ClipSolver.__new__(ClipSolver)
         solver.frames = frames
-        offset, expected = 0.0, []
-        for t in range(frames):
-            planted = [lowest[side][t] for side in lowest if contacts[side][t]]
-            if planted:
-                offset = -min(planted)
-            offset = max(offset, -min(lowest["left"][t], lowest["right"][t]))
-            expected.append(offset)
-        np.testing.assert_allclose(solver._heights(lowest, contacts), expected, atol=1e-9)
+        offsets = solver._heights(lowest, contacts, fps)
+        assert np.all(offsets >= -np.minimum(lowest["left"], lowest["right"]) - 1e-12)  # no sole below the floor
+    # Without the averaging, exactly the rule: the left sole (2 cm up) put on the floor while it is planted,
+    # the right one (4 cm up) from frame 25, straight between; the right sole 1 cm below the floor at frame 30.
+    frames = 40
+    lowest = {"left": np.full(frames, 0.02), "right": np.full(frames, 0.04)}
+    lowest["left"][15:] = 0.1  # lifted
+    lowest["right"][30] = -0.01
+    contacts = {"left": np.arange(frames) < 15, "right": np.arange(frames) >= 25}
+    solver = ClipSolver.__new__(ClipSolver)
+    solver.frames = frames
+    original = clip_programs.HEIGHT_SMOOTHING
+    try:
+        clip_programs.HEIGHT_SMOOTHING = 0.0
+        exact = solver._heights(lowest, contacts, fps)
+    finally:
+        clip_programs.HEIGHT_SMOOTHING = original
+    expected = np.r_[np.full(15, -0.02), np.linspace(-0.02, -0.04, 12)[1:-1], np.full(15, -0.04)]
+    expected[30] = 0.01
+    np.testing.assert_allclose(exact, expected, atol=1e-12)
+    # Averaged: a foot landing 3 cm higher than the one lifting off lowers the body over frames, not in one.
+    rising = np.r_[np.zeros(20), np.linspace(0.0, 0.1, 21)[1:]]  # the left sole lifts off after frame 19
+    lowest = {"left": rising, "right": np.r_[np.linspace(0.13, 0.03, 20), np.full(20, 0.03)]}
+    contacts = {"left": np.arange(frames) < 20, "right": np.arange(frames) >= 20}
+    offsets = solver._heights(lowest, contacts, fps)
+    assert offsets[0] == pytest.approx(0.0, abs=1e-6) and offsets[-1] == pytest.approx(-0.03, abs=1e-6)
+    assert np.abs(np.diff(offsets)).max() < 0.01
 
 
 def _unit(v: np.ndarray) -> np.ndarray:

@@ -16,9 +16,9 @@ frame with a foot on the floor.
 
 Where it is not inside, the balance pass of whole-clip retargeting
 (`clip_programs.balance`) moves the body sideways by the ZMP filter here
-(`balancing_shift`: Drake's `ZmpPlanner` on how far the centre of
-pressure is to move). `TorqueDemand` gives what each joint would have to
-exert, from Drake's inverse dynamics.
+(`balancing_shift`: one OSQP program over the whole clip, in which the
+moved body's centre of pressure is linear in its shift). `TorqueDemand`
+gives what each joint would have to exert, from Drake's inverse dynamics.
 """
 
 from __future__ import annotations
@@ -27,9 +27,9 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+import scipy.sparse as sp
 
 from hotu_drake.embodiment import Embodiment
-from hotu_drake.motion.synthesis import centre_of_mass_path
 from hotu_drake.retarget.contacts import Soles
 from hotu_drake.retarget.tree import Pose, Tree
 
@@ -231,93 +231,157 @@ def signed_distances(points: np.ndarray, valid: np.ndarray, p: np.ndarray) -> np
 
 
 MARGIN = 0.03  # m: how far inside the support the balance pass asks the centre of pressure to be
-MOST_MOVED = 0.15  # m: the furthest the pass moves a frame's centre of pressure, or its body (a fall: only this far)
-TRACKING = 1e-4  # the planner's cost of centre-of-mass acceleration against centre-of-pressure error (Drake: 0.1)
-# The filter's passes when called alone (the balance pass sets its own per round, `clip_programs.BALANCE_ROUNDS`):
-# the planner's pendulum is not the clip's (its height varies, its pressure is smoothed); passes take up the rest.
-PASSES = 12
-STEP_FRACTIONS = (1.0, 0.5, 0.25)  # of the planner's shift, tried in turn until one helps
-SETTLED = 1e-3  # m: the passes stop once no frame's centre of pressure is to move further than this
+MOST_MOVED = 0.15  # m: the furthest the pass moves the body along either horizontal axis
+# The filter's program: its cost of the shift (per m^2), of the shift's speed (per (m/s)^2), and of a
+# frame's centre of pressure falling short of MARGIN inside (per m, and per m^2). Measured on CMU 01_01
+# and the library's box carry: shifts 500x cheaper balanced the capture no better and made its planted
+# feet skate (0.44 m/s on H1, against 0.09); shortfall 5x cheaper left NAVIAI's box carry 0.77 inside.
+SHIFT_COST = 2.0
+SHIFT_SPEED_COST = 0.2
+SHORTFALL_COST = (1.0, 10.0)
+KNOT_SPACING = 0.05  # s between the shift's spline knots: half the centroidal figures' smoothing
+# The frames the filter's program constrains, at most this many per second (the shift's knots are 0.05 s apart).
+CHECK_RATE = 60.0
+FILTER_SETTINGS = {"verbose": 0, "polishing": 0, "eps_abs": 1e-2, "eps_rel": 1e-2, "rho": 10.0, "max_iter": 4000}
+BLOCK = 64  # frames per cost term of the program (its Hessian is block-diagonal)
 
 
-def desired_pressure(
-    support: Support, pressure: np.ndarray, margin: float = MARGIN, known: np.ndarray | None = None
-) -> np.ndarray:
-    """The centre of pressure (T, 2) brought `margin` inside the planted
-    soles' `support` where it was not: moved from p towards the soles'
-    centre c just as far as needed (the first point of the segment c -> p,
-    from p's end, inside every hull edge by `margin`), by at most
-    `MOST_MOVED`; unchanged with no foot down. `known`: the pressure's
-    `Support.margin`, when already found."""
-    points, down, radius = support.points, support.down, support.radius
-    out = pressure.copy()
-    margins = support.margin(pressure) if known is None else known
-    needed = np.flatnonzero(margins < margin)  # NaN compares False
-    if not len(needed):
-        return out
-    points, down, pressure = points[needed], down[needed], pressure[needed]
-    centre = np.einsum("tki,tk->ti", points, down) / np.maximum(down.sum(axis=1), 1)[:, None]
-    a, edge, hull, _ = (part[needed] for part in support.edges)
-    inward = np.stack([-edge[..., 1], edge[..., 0]], -1) / np.maximum(np.linalg.norm(edge, axis=-1), 1e-12)[..., None]
-    clearance = np.einsum("tei,tei->te", inward, centre[:, None] - a) - (margin - radius)  # c's room inside each edge
-    approach = np.einsum("tei,ti->te", inward, pressure - centre)  # < 0: going from c towards p leaves that edge
-    reach = np.where(hull & (approach < -1e-12), clearance / np.maximum(-approach, 1e-12), np.inf).min(axis=1)
-    reach[~hull.any(axis=1)] = 0.0  # a flat support (one foot of line contacts) has no inside: its centre
-    step = np.clip(reach, 0.0, 1.0)
-    moved = centre + step[:, None] * (pressure - centre) - pressure
-    out[needed] = pressure + capped(moved, MOST_MOVED)
-    return out
+def second_rate_matrix(frames: int, fps: float) -> sp.csr_matrix:
+    """`smoothed_rate(., fps, 2)` as a sparse (T, T) matrix (it is linear):
+    the centred moving average of `smooth` (the ends repeated), then
+    `np.gradient` twice (one-sided at the ends)."""
+    window = max(1, int(round(SMOOTHING * fps)))
+    rows = np.repeat(np.arange(frames), window)
+    columns = np.clip(rows + np.tile(np.arange(-(window // 2), (window - 1) // 2 + 1), frames), 0, frames - 1)
+    average = sp.csr_matrix((np.full(len(rows), 1.0 / window), (rows, columns)), shape=(frames, frames))
+    return (_gradient_matrix(frames, fps) @ _gradient_matrix(frames, fps) @ average).tocsr()
 
 
-def centre_of_mass_shift(com: np.ndarray, pressure: np.ndarray, desired: np.ndarray, fps: float) -> np.ndarray:
-    """The horizontal shift (T, 2) of the centre of mass that moves the
-    centre of pressure from `pressure` to `desired`: Drake's `ZmpPlanner` on
-    the difference (`synthesis.centre_of_mass_path`: a linear inverted
-    pendulum at the clip's mean height, with its preview of the whole
-    clip), from rest."""
-    change = desired - pressure
-    if not np.any(np.abs(change) > 1e-9):
-        return np.zeros((len(com), 2))
-    return centre_of_mass_path(change, fps, float(np.mean(com[:, 2])), start=np.zeros(4), tracking=TRACKING)
+def _gradient_matrix(frames: int, fps: float) -> sp.csr_matrix:
+    """`np.gradient(., 1 / fps)` along time as a sparse (T, T) matrix."""
+    if frames < 2:
+        return sp.csr_matrix((frames, frames))
+    inner = np.arange(1, frames - 1)
+    rows = np.r_[0, 0, inner, inner, frames - 1, frames - 1]
+    columns = np.r_[1, 0, inner + 1, inner - 1, frames - 1, frames - 2]
+    values = np.r_[1.0, -1.0, np.full(len(inner), 0.5), np.full(len(inner), -0.5), 1.0, -1.0] * fps
+    return sp.csr_matrix((values, (rows, columns)), shape=(frames, frames))
 
 
 def balancing_shift(
-    support: Support, com: np.ndarray, pressure: np.ndarray, fps: float, passes: int = PASSES
+    support: Support, com: np.ndarray, pressure: np.ndarray, fps: float, moved: np.ndarray | None = None
 ) -> np.ndarray:
-    """The ZMP filter: the sideways shift (T, 2) of the whole body that
-    brings the clip's centre of pressure `MARGIN` inside its `support`.
-    Each pass asks `ZmpPlanner` for the shift that moves the centre of
-    pressure where `desired_pressure` wants it, on the body as the passes
-    so far have moved it (`shifted_pressure`), and takes it (or half, or a
-    quarter) if that leaves less `shortfall`: the planner's pendulum is not
-    the clip's, and on a noisy capture a whole step can make things worse.
-    At most `passes` passes; fewer once nothing is left to move or no step
-    helps. No frame is moved further than `MOST_MOVED`; frames without a
-    finite centre of pressure are left out."""
-    shift = np.zeros((len(com), 2))
-    usable = np.isfinite(pressure).all(axis=1) & np.isfinite(com).all(axis=1)
-    if not usable.all():  # a frame without a centre of pressure (a fall: no lift) is not the filter's to move
-        support = Support(support.points, support.down & usable[:, None], support.radius)
-        com = np.where(usable[:, None], com, np.nan_to_num(com))
-        pressure = np.where(usable[:, None], pressure, com[:, :2])
-    moved, margins = pressure, support.margin(pressure)
-    left = _shortfall(margins)
-    for _ in range(passes):
-        desired = desired_pressure(support, moved, known=margins)
-        if np.max(np.abs(desired - moved), initial=0.0) < SETTLED:
-            break
-        step = centre_of_mass_shift(com, moved, desired, fps)
-        for fraction in STEP_FRACTIONS:
-            trial = capped(shift + fraction * step, MOST_MOVED)
-            trial_pressure = shifted_pressure(com, pressure, trial, fps)
-            trial_margins = support.margin(trial_pressure)
-            trial_left = _shortfall(trial_margins)
-            if trial_left < left and np.isfinite(trial).all():
-                shift, moved, margins, left = trial, trial_pressure, trial_margins, trial_left
-                break
-        else:
-            break
-    return shift
+    """The ZMP filter, as one convex program: the sideways shift s (T, 2)
+    of the whole body that brings the clip's centre of pressure `MARGIN`
+    inside its `support`. A common translation leaves the angular momentum
+    about the centre of mass alone, so the shifted body's centre of
+    pressure is linear in s (`shifted_pressure`):
+
+        p'_t = p_t + s_t - c_z,t / (c''_z,t + g) (R s)_t    (R: `second_rate_matrix`)
+
+    and OSQP finds the least shift, and the least speed of it, that puts
+    every supported frame's p' `MARGIN` inside each edge of its support's
+    hull (within half the contact radius of a flat support: a foot of line
+    contacts), a frame that cannot be paying for its shortfall. `moved`:
+    the shift (T, 2) the body already has; the total stays within
+    `MOST_MOVED` on each horizontal axis. Frames without a finite centre of
+    pressure (no lift: a fall) are left out."""
+    from pydrake.solvers import MathematicalProgram, OsqpSolver, SolverOptions
+
+    frames = len(com)
+    moved = np.zeros((frames, 2)) if moved is None else moved
+    usable = np.isfinite(pressure).all(axis=1) & np.isfinite(com).all(axis=1) & support.down.any(axis=1)
+    pressure = np.where(usable[:, None], pressure, 0.0)
+    lift = smoothed_rate(np.nan_to_num(com[:, 2]), fps, 2) + GRAVITY
+    height = np.where(usable, np.nan_to_num(com[:, 2]) / np.where(np.abs(lift) > 1e-9, lift, 1e-9), 0.0)
+    pressure_of_shift = (sp.identity(frames, format="csr") - sp.diags(height) @ second_rate_matrix(frames, fps)).tocsr()
+    checked = usable & (np.arange(frames) % max(1, int(round(fps / CHECK_RATE))) == 0)
+    rows, normals, bounds = _support_rows(support, pressure, checked)
+    if not len(rows):
+        return np.zeros((frames, 2))
+    basis = _spline_basis(frames, fps)  # shift = basis @ knots: smooth between frames by construction
+    knots = basis.shape[1]
+    program = MathematicalProgram()
+    coefficients = program.NewContinuousVariables(knots, 2, "knots")
+    constrained, row_frame = np.unique(rows, return_inverse=True)
+    short = program.NewContinuousVariables(len(constrained), "shortfall")
+    along = (pressure_of_shift @ basis).tocsr()[rows]  # the change of p' - p per knot, at each row's frame
+    count = len(rows)
+    program.AddLinearConstraint(
+        sp.hstack(
+            [
+                sp.diags(normals[:, 0]) @ along,
+                sp.diags(normals[:, 1]) @ along,
+                sp.csr_matrix((np.ones(count), (np.arange(count), row_frame)), shape=(count, len(constrained))),
+            ]
+        ).tocsc(),
+        bounds,
+        np.full(count, np.inf),
+        np.r_[coefficients[:, 0], coefficients[:, 1], short],
+    )
+    # |shift| <= MOST_MOVED on each axis, at the knots (the spline stays within its knots' hull)
+    program.AddBoundingBoxConstraint(-MOST_MOVED, MOST_MOVED, coefficients.reshape(-1))
+    program.AddBoundingBoxConstraint(0.0, np.inf, short)
+    difference = _gradient_matrix(frames, fps) @ basis
+    hessian = 2.0 * (SHIFT_COST * (basis.T @ basis) + SHIFT_SPEED_COST * (difference.T @ difference)).toarray()
+    for axis in range(2):  # the total shift, this and the body's earlier one, is what costs
+        program.AddQuadraticCost(hessian, 2.0 * SHIFT_COST * (basis.T @ moved[:, axis]), coefficients[:, axis], True)
+    linear, quadratic = SHORTFALL_COST
+    for start in range(0, len(constrained), BLOCK):
+        own = short[start : start + BLOCK]
+        program.AddQuadraticCost(np.diag(np.full(len(own), 2.0 * quadratic)), np.full(len(own), linear), own, True)
+    solver, options = OsqpSolver(), SolverOptions()
+    for option, value in FILTER_SETTINGS.items():
+        options.SetOption(solver.solver_id(), option, value)
+    result = solver.Solve(program, None, options)
+    if not result.is_success():
+        return np.zeros((frames, 2))
+    return np.clip(basis @ result.GetSolution(coefficients), -MOST_MOVED - moved, MOST_MOVED - moved)
+
+
+def _spline_basis(frames: int, fps: float) -> sp.csr_matrix:
+    """The (T, K) values at each frame of uniform cubic B-splines with knots
+    `KNOT_SPACING` apart, spanning the clip."""
+    from scipy.interpolate import BSpline
+
+    duration = max(frames - 1, 1) / fps
+    pieces = max(1, int(np.ceil(duration / KNOT_SPACING)))
+    knots = np.linspace(0.0, duration, pieces + 1)
+    step = knots[1] - knots[0]
+    knots = np.r_[knots[0] - 3 * step + np.arange(3) * step, knots, knots[-1] + step * np.arange(1, 4)]
+    return BSpline.design_matrix(np.arange(frames) / fps, knots, 3).tocsr()
+
+
+def _support_rows(support: Support, pressure: np.ndarray, usable: np.ndarray):
+    """The filter's constraints n . (p'_t - p_t) + shortfall_t >= bound:
+    one per hull edge of each usable frame (n inward, `MARGIN` inside), or,
+    for a support without an inside, p' within half the contact radius of
+    its longest segment (four, across and between its ends) or of its one
+    point (four, a square). Returns the frames (C,), normals (C, 2) and bounds (C,)."""
+    a, edge, hull, pairs = support.edges
+    frames_of, edges_of = np.nonzero(hull & usable[:, None])
+    inward = np.stack([-edge[frames_of, edges_of, 1], edge[frames_of, edges_of, 0]], -1)
+    inward /= np.linalg.norm(inward, axis=1, keepdims=True)
+    bound = MARGIN - support.radius - np.einsum("ci,ci->c", inward, pressure[frames_of] - a[frames_of, edges_of])
+    out = [(frames_of, inward, bound)]
+    half = 0.5 * support.radius
+    flat = usable & ~hull.any(axis=1)
+    line = np.flatnonzero(flat & pairs.any(axis=1))
+    if len(line):
+        longest = np.where(pairs[line], np.einsum("tei,tei->te", edge[line], edge[line]), -1.0).argmax(axis=1)
+        origin, direction = a[line, longest], edge[line, longest]
+        length = np.linalg.norm(direction, axis=1)
+        along = direction / length[:, None]
+        across = np.stack([-along[:, 1], along[:, 0]], -1)
+        for normal, least in ((across, -half), (-across, -half), (along, np.zeros(len(line))), (-along, -length)):
+            out.append((line, normal, least - np.einsum("ci,ci->c", normal, pressure[line] - origin)))
+    point = np.flatnonzero(flat & ~pairs.any(axis=1))
+    if len(point):
+        where = support.points[point, support.down[point].argmax(axis=1)]
+        for normal in np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]]):
+            normals = np.tile(normal, (len(point), 1))
+            out.append((point, normals, -half - np.einsum("ci,ci->c", normals, pressure[point] - where)))
+    return tuple(np.concatenate(parts) for parts in zip(*out))
 
 
 def inside_share(margins: np.ndarray) -> float | None:
@@ -334,11 +398,6 @@ def shortfall(support: Support, pressure: np.ndarray) -> float:
 
 def _shortfall(margins: np.ndarray) -> float:
     return float(np.nansum(np.clip(MARGIN - margins, 0.0, MOST_MOVED)))
-
-
-def capped(vectors: np.ndarray, longest: float) -> np.ndarray:
-    """Vectors (T, 2) shortened to at most `longest`."""
-    return vectors * np.minimum(1.0, longest / np.maximum(np.linalg.norm(vectors, axis=1), 1e-12))[:, None]
 
 
 class TorqueDemand:

@@ -27,8 +27,9 @@ legs' own targets.
 
 Balance (`balance`, on legged robots with a floating base): the body is
 shifted sideways so that the clip's centre of pressure comes inside its
-planted soles (a ZMP filter through Drake's `ZmpPlanner`, `balance.py`),
-and the legs' program puts the planted feet back, in a few rounds.
+planted soles (a ZMP filter, one convex program over the clip,
+`balance.py`), and the legs' program puts the planted feet back, in a few
+rounds.
 
 The solvers read the parts, targets, root path and leg locks of the
 `retargeter.Retargeter` that calls them (`retarget_clip`); that module
@@ -43,19 +44,20 @@ import numpy as np
 from pydrake.solvers import MathematicalProgram, OsqpSolver, SolverOptions
 
 from hotu_drake.embodiment.spec import SIDES
-from hotu_drake.retarget.balance import MOST_MOVED, balancing_shift, capped, inside_share, smooth
+from hotu_drake.motion.synthesis import smooth as smooth_path
+from hotu_drake.retarget.balance import MOST_MOVED, balancing_shift, inside_share, shifted_pressure
 from hotu_drake.retarget.part_ik import FINGER_LEVEL, SHAPE_TOLERANCE, TRUST_REGION
 from hotu_drake.retarget.targets import sideways_target
 from hotu_drake.retarget.tree import Pose
 from hotu_drake.rotations import heading_rotation, normalize
 
 # s: the window over which the root's drift correction (planted feet kept where they landed) is averaged.
-DRIFT_SMOOTHING = 0.2
-# The balance pass: rounds of the ZMP filter (at most this many passes each) and of the legs' program;
-# a round after the first only while less than this share of the supported frames is inside (0.98: a
-# third of the walks' rounds are left out, and no locomotion clip on any robot ends below 0.96).
-BALANCE_ROUNDS = (8, 4, 4)
+DRIFT_SMOOTHING = 0.06
+# The balance pass: at most this many rounds of the ZMP filter's program and the legs' program; a round
+# after the first only while less than ENOUGH_INSIDE of the supported frames are inside.
+BALANCE_ROUNDS = 3
 ENOUGH_INSIDE = 0.98
+WORTH_A_ROUND = 0.01
 # The share of the body's shift its centre of mass was measured to follow is taken within these bounds,
 # from a round that moved the body by at least this much (m, root mean square over the frames).
 CARRIED = (0.5, 1.0)
@@ -68,6 +70,8 @@ TILT_WEIGHT = 1.0
 # body does not carry it off its anchor, fading over `SWING_FADE` s into the swing.
 SWING_WEIGHT = 3.0
 SWING_FADE = 0.05
+# s (a Gaussian's sigma) over which the root's height offsets that put the planted soles on the floor are averaged.
+HEIGHT_SMOOTHING = 0.02
 
 
 class ClipProgram:
@@ -410,25 +414,20 @@ class ClipSolver:
     def _lowest(self, poses: Pose) -> dict[str, np.ndarray]:
         return {side: self.r.soles.lowest_frames(poses, side) for side in self.r.soles.feet}
 
-    def _heights(self, lowest: dict[str, np.ndarray], contacts: dict[str, np.ndarray]) -> np.ndarray:
-        """Root height offsets: the lowest planted sole on the floor, held
-        while no foot is planted, and no sole ever below the floor."""
+    def _heights(self, lowest: dict[str, np.ndarray], contacts: dict[str, np.ndarray], fps: float) -> np.ndarray:
+        """Root height offsets: the lowest planted sole on the floor, joined
+        straight across frames with no foot planted, averaged over
+        `HEIGHT_SMOOTHING` (so a contact taken or let go does not make the
+        body jump), and no sole ever below the floor."""
         feet = np.stack(list(lowest.values()), axis=1)  # (T, feet)
         flags = np.stack([contacts[side] if side in contacts else np.zeros(self.frames, bool) for side in lowest], 1)
-        planted = flags.any(axis=1)
-        # Frame by frame: o_t = max(lift of the planted soles if any, else o_t-1; lift of all soles).
-        # Each run from a planted frame to the next is one running maximum.
-        lowest_planted = np.where(flags, feet, np.inf).min(axis=1)
+        planted = np.flatnonzero(flags.any(axis=1))
         lift_all = -feet.min(axis=1)  # what keeps every sole above the floor
-        start = np.where(planted, -lowest_planted, -np.inf)
-        if not planted[0]:
-            start[0] = 0.0  # the clip starts without an offset
-        opens = planted.copy()
-        opens[0] = True  # frames that start a run: planted ones, and the first
-        values = np.where(opens, np.maximum(start, lift_all), lift_all)
-        runs = np.cumsum(opens)
-        span = 1e3 + np.ptp(values)  # lifts of different runs never mix
-        return np.maximum.accumulate(values + runs * span) - runs * span
+        if not len(planted):
+            return np.maximum.accumulate(np.maximum(lift_all, 0.0))  # nothing to stand on: only ever up
+        on_floor = -np.where(flags[planted], feet[planted], np.inf).min(axis=1)
+        offsets = smooth_path(np.interp(np.arange(self.frames), planted, on_floor), fps, HEIGHT_SMOOTHING)
+        return np.maximum(offsets, lift_all)
 
     def plant_feet(
         self, q: np.ndarray, rotations: np.ndarray, positions: np.ndarray, contacts: dict, fixed: dict, fps: float
@@ -438,7 +437,7 @@ class ClipSolver:
         r = self.r
         poses = self._poses(q, rotations, positions)
         lift = np.zeros((self.frames, 3))
-        lift[:, 2] = self._heights(self._lowest(poses), contacts)
+        lift[:, 2] = self._heights(self._lowest(poses), contacts, fps)
         positions = positions + lift
         if not self.plants_feet:
             return positions
@@ -460,12 +459,12 @@ class ClipSolver:
                 shift[t, :2] = drift[:2]
         # The drift taken out smoothly: frame-by-frame corrections would shake the body (its centre of mass
         # accelerating at 5-9 m/s^2 in the library walk); the legs' program keeps the planted feet on their anchors.
-        shift = smooth(shift, max(1, round(DRIFT_SMOOTHING * fps)))
+        shift = smooth_path(shift, fps, DRIFT_SMOOTHING)
         positions += shift
-        self._lock_legs(q, rotations, positions, anchors, fixed, poses.translated(shift[:, None]))
+        self._lock_legs(q, rotations, positions, anchors, fixed, poses.translated(shift[:, None]), fps)
         np.clip(q, r.embodiment.position_lower, r.embodiment.position_upper, out=q)  # before the soles' last lift
         # The levelled soles: planted ones back on the floor, none below it.
-        positions[:, 2] += self._heights(self._lowest(self._poses(q, rotations, positions)), contacts)
+        positions[:, 2] += self._heights(self._lowest(self._poses(q, rotations, positions)), contacts, fps)
         return positions
 
     def ankles(self, poses: Pose) -> dict[str, np.ndarray]:
@@ -495,13 +494,13 @@ class ClipSolver:
         fade = SWING_FADE * fps
         swing = {side: (ankle, SWING_WEIGHT * _near_contact(planted[side], fade)) for side, ankle in ankles.items()}
         positions = positions + shift
-        self._lock_legs(q, rotations, positions, anchors, fixed, self._poses(q, rotations, positions), swing=swing)
+        self._lock_legs(q, rotations, positions, anchors, fixed, self._poses(q, rotations, positions), fps, swing=swing)
         np.clip(q, r.embodiment.position_lower, r.embodiment.position_upper, out=q)
-        positions[:, 2] += self._heights(self._lowest(self._poses(q, rotations, positions)), contacts)
+        positions[:, 2] += self._heights(self._lowest(self._poses(q, rotations, positions)), contacts, fps)
         return positions
 
     def _lock_legs(
-        self, q, rotations, positions, anchors: dict[str, np.ndarray], fixed: dict, poses: Pose, swing=None
+        self, q, rotations, positions, anchors: dict[str, np.ndarray], fixed: dict, poses: Pose, fps: float, swing=None
     ) -> None:
         """The leg program: the legs' own targets, and over each contact phase
         the planted ankle on its anchor with its sole level (and, given
@@ -540,14 +539,15 @@ def balance(
     """The balance pass: the body shifted so that the clip's centre of
     pressure, with the robot's own mass distribution, comes
     `balance.MARGIN` inside the support of its planted soles (the ZMP
-    filter `balance.balancing_shift`, through Drake's `ZmpPlanner`), and
-    the legs' program putting the planted feet back where they were; in
+    filter's program, `balance.balancing_shift`), and the legs' program
+    putting the planted feet back where they were; in up to
     `BALANCE_ROUNDS` rounds, each filtering the body the last one left
     (the legs do not move quite as a translated body would, and the feet
     may settle by a few millimetres), while fewer than `ENOUGH_INSIDE` of
-    the supported frames are inside; the body moves `balance.MOST_MOVED`
-    at most over all rounds. Returns the root positions and the support
-    margins (m, per frame) before and after."""
+    the supported frames are inside and the filter's shift would bring at
+    least `WORTH_A_ROUND` more of them inside; the body moves
+    `balance.MOST_MOVED` at most. Returns the root positions and the
+    support margins (m, per frame) before and after."""
     dynamics = solver.r.balance
     poses = dynamics.poses(q, rotations, positions)
     support = dynamics.support(poses, contacts)  # where the planted feet are, and will be put back
@@ -556,12 +556,14 @@ def balance(
     ankles = solver.ankles(solver._poses(q, rotations, positions))
     carried = 1.0  # how far the centre of mass moves with the body: the feet stay, the legs follow in part
     total = np.zeros((len(q), 2))
-    for index, passes in enumerate(BALANCE_ROUNDS):
+    for index in range(BALANCE_ROUNDS):
         share = inside_share(support.margin(pressure))
         if index and (share is None or share >= ENOUGH_INSIDE):  # (no supported frame: nothing to move)
             break
-        shift = balancing_shift(support, com, pressure, fps, passes) / carried
-        shift = capped(total + shift, MOST_MOVED) - total
+        shift = balancing_shift(support, com, pressure, fps, moved=total * carried)
+        if index and inside_share(support.margin(shifted_pressure(com, pressure, shift, fps))) < share + WORTH_A_ROUND:
+            break  # the legs' program is the round's cost: not for what the filter itself says gains little
+        shift = np.clip(total + shift / carried, -MOST_MOVED, MOST_MOVED) - total
         if not np.any(np.abs(shift) > 1e-4):
             break
         total += shift
