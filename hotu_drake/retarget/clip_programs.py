@@ -568,7 +568,8 @@ def balance(
             break
         total += shift
         shift = np.c_[shift, np.zeros(len(q))]
-        positions = solver.move_body(q, rotations, positions, contacts, fixed, shift, ankles, fps)
+        staying = feet_stay(solver, fixed, total)
+        positions = solver.move_body(q, rotations, positions, contacts, staying, shift, ankles, fps)
         poses = dynamics.poses(q, rotations, positions)
         support = dynamics.support(poses, contacts)
         moved_com, pressure = dynamics.centroidal(poses, fps)
@@ -578,6 +579,22 @@ def balance(
         com = moved_com
     margins["after"] = support.margin(pressure)
     return positions, margins
+
+
+def feet_stay(solver: ClipSolver, fixed: dict, shift: np.ndarray) -> dict:
+    """The source targets with each leg point's sideways offset from its hip
+    less the body's sideways shift (T, 2): the pelvis sways over the feet,
+    and a swinging foot keeps its path across the floor (as the library's
+    planned walks do), rather than being carried along and closing the
+    stance; kept within the stance's bounds (clear of the other leg)."""
+    out = dict(fixed)
+    for key, target in fixed.items():
+        if isinstance(key, tuple) and key[0] == "side":
+            stance = solver.r.stance_of(key)
+            left = target[:, :3]
+            offset = np.clip(target[:, 3] - np.einsum("ti,ti->t", left[:, :2], shift), stance.low, stance.high)
+            out[key] = np.column_stack((left, offset))
+    return out
 
 
 def _near_contact(planted: np.ndarray, fade: float) -> np.ndarray:
