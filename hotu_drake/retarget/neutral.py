@@ -3,7 +3,12 @@
 A robot built with angled shins or offset shoulders cannot hold a limb the
 way a human standing straight does; matching raw directions makes its
 joints fight that geometry all clip long. Its neutral pose is the
-(uncalibrated) retargeting of the UDH at rest, a human standing straight;
+(uncalibrated) retargeting of the UDH at rest, a human standing straight,
+with the legs' sideways targets weighted `NEUTRAL_SIDEWAYS_FACTOR` times
+over (so it stands at the robot's own width, as those targets ask in every
+clip; with their clip weight its hips' roll was 1.6-2.4 degrees from the
+robot's standing pose, and a clip's directions and widths pulled against
+each other);
 there each limb segment sits at a small rotation C from the human's,
 measured in the segment's parent frame (the body frame, pelvis or chest,
 turned by the parent segment's swing away from rest). The retargeting
@@ -32,6 +37,7 @@ from hotu_drake.retarget.udh_rest import udh_rest_landmarks
 from hotu_drake.rotations import normalize
 
 NEUTRAL_SWEEPS = 40  # passes over the parts that find an embodiment's neutral pose
+NEUTRAL_SIDEWAYS_FACTOR = 10.0  # the sideways targets' weight in the neutral solve, over a clip's
 SMALLEST_TURN = np.radians(1.0)  # a smaller offset from the human's direction is no calibration
 LEG = ("hip", "knee", "ankle")
 CALIBRATED = ("shoulder", "hip", "knee", "ankle")  # by the segment's start
@@ -75,7 +81,16 @@ def neutral_calibration(retargeter, source_landmarks: set[str]) -> dict:
     base, rotations, positions = r.root_path(src, src_frames, r.scale_ratio(src))
     if base is not None:
         q[r.base] = base[0]
-    r._solve_parts(q, q.copy(), rotations[0], positions[0], 0, src, src_frames, NEUTRAL_SWEEPS)
+    sideways = [
+        target for part in r.parts for target, key in part.targets if isinstance(key, tuple) and key[0] == "side"
+    ]
+    for target in sideways:  # the neutral legs stand at the robot's own width, which the sideways targets ask
+        target.weight *= NEUTRAL_SIDEWAYS_FACTOR
+    try:
+        r._solve_parts(q, q.copy(), rotations[0], positions[0], 0, src, src_frames, NEUTRAL_SWEEPS)
+    finally:
+        for target in sideways:
+            target.weight /= NEUTRAL_SIDEWAYS_FACTOR
     pose = r.tree.forward(q, rotations[0], positions[0])
     hinges = {part.name: part.problem.joints[0] for part in r.parts if len(part.problem.joints) == 1}
     keys = [key for part in r.parts for _, key in part.targets if isinstance(key, tuple) and key[0] == "dir"]
