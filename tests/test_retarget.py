@@ -253,3 +253,28 @@ def test_landmark_jacobians_of_every_frame_match_frame_by_frame():
             np.testing.assert_allclose(points[t], point, atol=1e-12)
             np.testing.assert_allclose(jacobians[t], jacobian, atol=1e-12)
             np.testing.assert_allclose(rotations[t], marks.rotation_jacobian(link, one, joints), atol=1e-12)
+
+
+def test_a_human_clip_is_low_passed_with_each_hand_as_a_rigid_body():
+    """Whole-clip retargeting low-passes a capture's landmarks (its jitter
+    would read as motion), but a hand's fingers keep their places in its
+    frame: a turning hand's shape is the source's."""
+    from hotu_drake.motion.udh_skeleton import udh_landmarks as landmarks_of_udh
+    from hotu_drake.retarget.source_frames import low_passed, source_frames
+
+    truth = udh_test_clip("full", frames=120)
+    src = landmarks_of_udh(embodiment.load("udh", "full"), truth)
+    rng = np.random.default_rng(5)
+    noisy = {name: points + rng.normal(0.0, 0.004, points.shape) for name, points in src.items()}
+    smoothed = low_passed(noisy, truth.fps, 0.02)
+    body = [n for n in src if not any(f in n for f in ("thumb", "index", "middle", "ring", "little"))]
+    before = np.mean([np.abs(noisy[n] - src[n]).mean() for n in body])
+    after = np.mean([np.abs(smoothed[n] - src[n]).mean() for n in body])
+    assert after < 0.5 * before  # the jitter is mostly gone
+    raw, moved = source_frames(noisy), source_frames(smoothed)
+    for side in ("left", "right"):
+        hand = f"{side}_hand"
+        for name in (f"{side}_index_4", f"{side}_thumb_4", f"{side}_little_1"):
+            local = np.einsum("tji,tj->ti", raw[hand], noisy[name] - noisy[hand])
+            again = np.einsum("tji,tj->ti", moved[hand], smoothed[name] - smoothed[hand])
+            np.testing.assert_allclose(again, local, atol=1e-9)

@@ -62,9 +62,10 @@ class ClipBalance:
         com = np.einsum("l,tli->ti", self.masses, centers) / self.mass
         velocity = np.gradient(centers, dt, axis=0)
         omega = _angular_velocity(poses.rotations, dt)  # (T, L, 3)
-        world_inertia = poses.rotations @ self.inertias @ np.swapaxes(poses.rotations, -1, -2)
         momentum = np.einsum("l,tli->ti", self.masses, np.cross(centers - com[:, None], velocity))
-        momentum += np.einsum("tlij,tlj->ti", world_inertia, omega)
+        # Each link's R I R' omega, as vectors (no (T, L, 3, 3) products).
+        local = np.einsum("tlji,tlj->tli", poses.rotations, omega)
+        momentum += np.einsum("tlij,tlj->ti", poses.rotations, np.einsum("lij,tlj->tli", self.inertias, local))
         acceleration = smoothed_rate(com, fps, 2)
         torque = smoothed_rate(momentum, fps, 1)  # L' about the centre of mass
         lift = acceleration[:, 2] + GRAVITY
@@ -187,12 +188,14 @@ def smooth(values: np.ndarray, window: int) -> np.ndarray:
 
 
 def _angular_velocity(rotations: np.ndarray, dt: float) -> np.ndarray:
-    """World angular velocities (T, L, 3) of rotations (T, L, 3, 3), by central differences."""
+    """World angular velocities (T, L, 3) of rotations (T, L, 3, 3), by
+    central differences: the skew part of R' R^T, only its three entries."""
     rate = np.gradient(rotations, dt, axis=0)
-    skew = rate @ np.swapaxes(rotations, -1, -2)
-    return 0.5 * np.stack(
-        (skew[..., 2, 1] - skew[..., 1, 2], skew[..., 0, 2] - skew[..., 2, 0], skew[..., 1, 0] - skew[..., 0, 1]), -1
-    )
+
+    def entry(i: int, j: int) -> np.ndarray:  # (R' R^T)_ij
+        return np.einsum("tlk,tlk->tl", rate[..., i, :], rotations[..., j, :])
+
+    return 0.5 * np.stack((entry(2, 1) - entry(1, 2), entry(0, 2) - entry(2, 0), entry(1, 0) - entry(0, 1)), -1)
 
 
 def hull_edges(points: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

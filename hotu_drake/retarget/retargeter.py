@@ -23,7 +23,6 @@ from hotu_drake.embodiment.landmarks import landmark_placements
 from hotu_drake.embodiment.spec import FINGERS, SIDES
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import landmarks_of
-from hotu_drake.motion.synthesis import smooth
 from hotu_drake.objects import scale_object_poses
 from hotu_drake.retarget import frames
 from hotu_drake.retarget.balance import ClipBalance
@@ -31,7 +30,7 @@ from hotu_drake.retarget.clip_programs import retarget_clip
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
 from hotu_drake.retarget.neutral import calibrate, neutral_calibration
 from hotu_drake.retarget.part_ik import FINGER_LEVEL, SHAPE_TOLERANCE, PartProblem
-from hotu_drake.retarget.source_frames import hand_frame_kind, source_frames
+from hotu_drake.retarget.source_frames import hand_frame_kind, low_passed, source_frames
 from hotu_drake.retarget.stance import leg_clearance
 from hotu_drake.retarget.targets import (
     BendPlane,
@@ -449,15 +448,15 @@ class Retargeter:
 
     def retarget(self, source: MotionClip) -> MotionClip:
         """The source (a human or UDH clip, through its landmarks) on this
-        embodiment. A human clip retargeted whole is low-passed first
-        (`RetargetOptions.source_smoothing`): a capture's markers jitter from
-        frame to frame, which its centre of pressure and foot contacts
-        would take for motion."""
+        embodiment. A human clip retargeted whole has its body's landmarks
+        low-passed first (`RetargetOptions.source_smoothing`; each hand
+        as a rigid body): a capture's markers jitter from frame to frame, which its
+        centre of pressure and foot contacts would take for motion."""
         if source.embodiment != "human":
             return self.retarget_landmarks(_landmarks_of_embodiment_clip(source), source.fps, source)
         src = landmarks_of(source)
         if self.options.whole_clip and self.options.source_smoothing > 0.0:
-            src = {name: smooth(points, source.fps, self.options.source_smoothing) for name, points in src.items()}
+            src = low_passed(src, source.fps, self.options.source_smoothing)
         return self.retarget_landmarks(src, source.fps, source)
 
     def retarget_landmarks(

@@ -9,7 +9,8 @@ from functools import cache
 
 import numpy as np
 
-from hotu_drake.embodiment.spec import SIDES
+from hotu_drake.embodiment.spec import FINGERS, SIDES
+from hotu_drake.motion.synthesis import smooth
 from hotu_drake.retarget import frames
 from hotu_drake.retarget.udh_rest import udh_rest_landmarks
 from hotu_drake.rotations import heading_rotation
@@ -50,4 +51,23 @@ def source_frames(src: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
             out[f"{side}_hand"] = frames.thumb_hand_frame(src, side) @ thumb_frame_offset(side)
         if f"{side}_toe" in src:
             out[f"{side}_foot"] = frames.foot_frame(src, side, lateral)
+    return out
+
+
+def low_passed(src: dict[str, np.ndarray], fps: float, sigma: float) -> dict[str, np.ndarray]:
+    """The landmarks (T, 3) each low-passed along time (a Gaussian of
+    `sigma` s), but the fingers' moved with their hand as a rigid body: each
+    finger landmark keeps its place in its hand's frame, so the hand's shape
+    is the source's (low-passed point by point, a turning hand's fingers
+    would seem to bend, and their parts be solved again on every frame)."""
+    out = {name: smooth(points, fps, sigma) for name, points in src.items()}
+    raw, moved = source_frames(src), source_frames(out)
+    for side in SIDES:
+        frame, origin = f"{side}_hand", f"{side}_hand"
+        if frame not in raw:
+            continue
+        turn = moved[frame] @ np.swapaxes(raw[frame], -1, -2)
+        for name in src:
+            if name.startswith(f"{side}_") and any(f"_{finger}_" in name for finger in FINGERS):
+                out[name] = out[origin] + np.einsum("tij,tj->ti", turn, src[name] - src[origin])
     return out
