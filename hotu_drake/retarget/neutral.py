@@ -81,16 +81,8 @@ def neutral_calibration(retargeter, source_landmarks: set[str]) -> dict:
     base, rotations, positions = r.root_path(src, src_frames, r.scale_ratio(src))
     if base is not None:
         q[r.base] = base[0]
-    sideways = [
-        target for part in r.parts for target, key in part.targets if isinstance(key, tuple) and key[0] == "side"
-    ]
-    for target in sideways:  # the neutral legs stand at the robot's own width, which the sideways targets ask
-        target.weight *= NEUTRAL_SIDEWAYS_FACTOR
-    try:
+    with r.sideways_weighted(NEUTRAL_SIDEWAYS_FACTOR):  # the neutral legs stand at the robot's own width
         r._solve_parts(q, q.copy(), rotations[0], positions[0], 0, src, src_frames, NEUTRAL_SWEEPS)
-    finally:
-        for target in sideways:
-            target.weight /= NEUTRAL_SIDEWAYS_FACTOR
     pose = r.tree.forward(q, rotations[0], positions[0])
     hinges = {part.name: part.problem.joints[0] for part in r.parts if len(part.problem.joints) == 1}
     keys = [key for part in r.parts for _, key in part.targets if isinstance(key, tuple) and key[0] == "dir"]

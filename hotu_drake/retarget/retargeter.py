@@ -13,6 +13,8 @@ the parts and their targets.
 """
 
 import copy
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -186,6 +188,21 @@ class Retargeter:
                 low, high = (clear, np.inf) if sign > 0 else (-np.inf, -clear)
                 out[(f"{s}_hip", point)] = SidewaysStance(float(own[s][0]), float(neutral[s][0]) / human_leg, low, high)
         return out
+
+    @contextmanager
+    def sideways_weighted(self, factor: float) -> Iterator[None]:
+        """The legs' sideways targets weighted `factor` times over within the
+        block: where the feet's width must hold against the legs' directions
+        (the neutral solve; the balance pass, which sways the pelvis over feet
+        that stay)."""
+        targets = [t for part in self.parts for t, key in part.targets if isinstance(key, tuple) and key[0] == "side"]
+        for target in targets:
+            target.weight *= factor
+        try:
+            yield
+        finally:
+            for target in targets:
+                target.weight /= factor
 
     def stance_of(self, key: tuple) -> SidewaysStance:
         """The `SidewaysStance` of a sideways target's key."""
