@@ -24,6 +24,7 @@ from hotu_drake.embodiment.spec import FINGERS, SIDES
 from hotu_drake.rotations import euler_xyz_within_limits, heading_yaw, normalize, rot_x, rot_y, rot_z, wrap
 
 GRAVITY = 9.81  # m/s^2, for ballistic phases (jumps)
+ZMP_TRACKING = 1e-4  # the ZMP planner's cost of acceleration against centre-of-pressure error (Drake's: 0.1)
 _EY = np.array([0.0, 1.0, 0.0])
 
 
@@ -454,23 +455,20 @@ def balanced_pelvis_path(
     return centre_of_mass_path(pressure, fps, body.leg_length(0.0))  # the pendulum's height: soles to hips
 
 
-def centre_of_mass_path(
-    pressure: np.ndarray, fps: float, height: float, start: np.ndarray | None = None, tracking: float = 1e-4
-) -> np.ndarray:
+def centre_of_mass_path(pressure: np.ndarray, fps: float, height: float) -> np.ndarray:
     """The centre of mass path (T, 2) that puts the centre of pressure on
     `pressure` (T, 2, one per frame): Drake's `ZmpPlanner`, a linear inverted
-    pendulum at `height` with its preview of the whole path, `tracking` its
-    cost of acceleration against pressure error; from `start` (x, y and
-    their rates; default: at rest over the first pressure)."""
+    pendulum at `height` with its preview of the whole path, from rest over
+    the first pressure."""
     from pydrake.planning import ZmpPlanner
     from pydrake.trajectories import PiecewisePolynomial
 
     times = np.arange(len(pressure)) / fps
-    start = np.concatenate([pressure[0], np.zeros(2)]) if start is None else start
+    start = np.concatenate([pressure[0], np.zeros(2)])
     # Held for a second at its end: the planner wants a reference that ends at rest.
     reference = PiecewisePolynomial.FirstOrderHold(np.append(times, times[-1] + 1.0), np.c_[pressure.T, pressure[-1]])
     planner = ZmpPlanner()
-    planner.Plan(reference, start, height, GRAVITY, np.eye(2), tracking * np.eye(2))
+    planner.Plan(reference, start, height, GRAVITY, np.eye(2), ZMP_TRACKING * np.eye(2))
     return planner.get_nominal_com().vector_values(times).T
 
 
