@@ -87,7 +87,7 @@ def test_a_centre_of_pressure_outside_the_feet_is_caught_by_the_report_and_broug
     assert np.all(margin >= 0.0) and np.all(brought[:, 0] < 0.25)  # inside, pushed back from where it was
     far = np.tile([1.0, 0.0], (clip.num_frames, 1))
     shift = balancing_shift(support, com, far, clip.fps)
-    assert np.abs(shift).max() <= MOST_MOVED + 1e-9  # a metre out is not the filter's to fix: 15 cm at most
+    assert 0.9 * MOST_MOVED < np.abs(shift).max() <= MOST_MOVED + 1e-9  # a metre out: as far as it may, 15 cm
     # The report: a clip whose body lurches forward over still feet.
     ahead = np.zeros((30, 3))
     ahead[:, 0] = 0.002 * np.arange(30) ** 2  # accelerating forward at 3.6 m/s^2
@@ -144,7 +144,6 @@ def test_the_filter_brings_a_held_lean_inside_and_does_not_chase_frame_to_frame_
     shift = balancing_shift(support, com, pressure, clip.fps)
     after = shifted_pressure(com, pressure, shift, clip.fps)
     assert np.all(support.margin(after)[20:50] >= 0.0)  # the held lean: all inside (none before)
-    assert np.abs(shift).max() <= MOST_MOVED + 1e-9
     # The jitter is not followed: a shift smooth between frames (its knots are 0.05 s apart) cannot, and a
     # per-frame one would only hide itself from the centroidal figures' smoothing.
     assert np.abs(np.diff(shift[60:], axis=0)).max() < 0.01 and np.ptp(shift[60:, 0]) < 0.05

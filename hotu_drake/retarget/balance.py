@@ -163,21 +163,29 @@ def shifted_pressure(com: np.ndarray, pressure: np.ndarray, shift: np.ndarray, f
     sideways by `shift` (T, 2): the angular momentum about the centre of
     mass is unchanged by a common translation, so only the centre of mass
     (T, 3) and its acceleration change (smoothed as `centroidal` smooths)."""
-    lift = smoothed_rate(com[:, 2], fps, 2) + GRAVITY
-    return pressure + shift - com[:, 2:3] * smoothed_rate(shift, fps, 2) / lift[:, None]
+    return pressure + shift - pendulum_height(com, fps)[:, None] * smoothed_rate(shift, fps, 2)
+
+
+def pendulum_height(com: np.ndarray, fps: float) -> np.ndarray:
+    """c_z / (c_z'' + g) per frame (T,): how far a centre-of-mass
+    acceleration moves the centre of pressure back (0 where the centre of
+    mass is not finite; a lift near zero held at 1e-9)."""
+    height = np.nan_to_num(com[:, 2])
+    lift = smoothed_rate(height, fps, 2) + GRAVITY
+    return np.where(np.isfinite(com[:, 2]), height / np.where(np.abs(lift) > 1e-9, lift, 1e-9), 0.0)
 
 
 def smoothed_rate(values: np.ndarray, fps: float, order: int) -> np.ndarray:
     """The first or second time derivative (`order`) of `values` (T, ...)
     averaged over `SMOOTHING` first: the centroidal figures' one way of
     differentiating a clip."""
-    rate = smooth(values, max(1, int(round(SMOOTHING * fps))))
+    rate = moving_average(values, max(1, int(round(SMOOTHING * fps))))
     for _ in range(order):
         rate = np.gradient(rate, 1.0 / fps, axis=0)
     return rate
 
 
-def smooth(values: np.ndarray, window: int) -> np.ndarray:
+def moving_average(values: np.ndarray, window: int) -> np.ndarray:
     """A centred moving average over `window` frames (the ends averaged over what there is)."""
     if window <= 1:
         return values
@@ -282,12 +290,15 @@ def balancing_shift(
 
         p'_t = p_t + s_t - c_z,t / (c''_z,t + g) (R s)_t    (R: `second_rate_matrix`)
 
-    and OSQP finds the least shift, and the least speed of it, that puts
-    every supported frame's p' `MARGIN` inside each edge of its support's
-    hull (within half the contact radius of a flat support: a foot of line
-    contacts), a frame that cannot be paying for its shortfall. `moved`:
-    the shift (T, 2) the body already has; the total stays within
-    `MOST_MOVED` on each horizontal axis. Frames without a finite centre of
+    and OSQP finds the least shift (a cubic spline, `_spline_basis`), and
+    the least speed of what it adds, that puts the checked frames' p'
+    `MARGIN` inside each edge of their support's hull (every supported
+    frame, `CHECK_RATE` a second at most; within half the contact radius of
+    a flat support: a foot of line contacts), a frame that cannot be paying
+    for its shortfall. `moved`: the shift (T, 2) the body already has; the
+    total is clipped to `MOST_MOVED` on each horizontal axis (the program
+    bounds what it adds by as much). A failed solve leaves the body where it
+    is. Frames without a finite centre of
     pressure (no lift: a fall) are left out."""
     from pydrake.solvers import MathematicalProgram, OsqpSolver, SolverOptions
 
@@ -295,8 +306,7 @@ def balancing_shift(
     moved = np.zeros((frames, 2)) if moved is None else moved
     usable = np.isfinite(pressure).all(axis=1) & np.isfinite(com).all(axis=1) & support.down.any(axis=1)
     pressure = np.where(usable[:, None], pressure, 0.0)
-    lift = smoothed_rate(np.nan_to_num(com[:, 2]), fps, 2) + GRAVITY
-    height = np.where(usable, np.nan_to_num(com[:, 2]) / np.where(np.abs(lift) > 1e-9, lift, 1e-9), 0.0)
+    height = np.where(usable, pendulum_height(com, fps), 0.0)
     pressure_of_shift = (sp.identity(frames, format="csr") - sp.diags(height) @ second_rate_matrix(frames, fps)).tocsr()
     checked = usable & (np.arange(frames) % max(1, int(round(fps / CHECK_RATE))) == 0)
     rows, normals, bounds = _support_rows(support, pressure, checked)
@@ -325,10 +335,17 @@ def balancing_shift(
     # |shift| <= MOST_MOVED on each axis, at the knots (the spline stays within its knots' hull)
     program.AddBoundingBoxConstraint(-MOST_MOVED, MOST_MOVED, coefficients.reshape(-1))
     program.AddBoundingBoxConstraint(0.0, np.inf, short)
-    difference = _gradient_matrix(frames, fps) @ basis
-    hessian = 2.0 * (SHIFT_COST * (basis.T @ basis) + SHIFT_SPEED_COST * (difference.T @ difference)).toarray()
-    for axis in range(2):  # the total shift, this and the body's earlier one, is what costs
-        program.AddQuadraticCost(hessian, 2.0 * SHIFT_COST * (basis.T @ moved[:, axis]), coefficients[:, axis], True)
+    # The total shift's cost and its increment's speed's, block by block of frames over the knots each touches
+    # (the whole K x K Hessian, dense, would take a gigabyte on a ten-minute capture).
+    difference = (_gradient_matrix(frames, fps) @ basis).tocsr()
+    for start in range(0, frames, BLOCK):
+        values, rates = basis[start : start + BLOCK], difference[start : start + BLOCK]
+        touched = np.union1d(values.indices, rates.indices)
+        values, rates = values[:, touched].toarray(), rates[:, touched].toarray()
+        hessian = 2.0 * (SHIFT_COST * values.T @ values + SHIFT_SPEED_COST * rates.T @ rates)
+        for axis in range(2):
+            gradient = 2.0 * SHIFT_COST * values.T @ moved[start : start + BLOCK, axis]
+            program.AddQuadraticCost(hessian, gradient, coefficients[touched, axis], True)
     linear, quadratic = SHORTFALL_COST
     for start in range(0, len(constrained), BLOCK):
         own = short[start : start + BLOCK]

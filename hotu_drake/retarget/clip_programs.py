@@ -51,7 +51,7 @@ from hotu_drake.retarget.targets import sideways_target
 from hotu_drake.retarget.tree import Pose
 from hotu_drake.rotations import heading_rotation, normalize
 
-# s: the window over which the root's drift correction (planted feet kept where they landed) is averaged.
+# s: the Gaussian sigma over which the root's drift correction (planted feet kept where they landed) is averaged.
 DRIFT_SMOOTHING = 0.06
 # The balance pass: at most this many rounds of the ZMP filter's program and the legs' program; a round
 # after the first only while less than ENOUGH_INSIDE of the supported frames are inside. A third round
@@ -467,9 +467,9 @@ class ClipSolver:
         # accelerating at 5-9 m/s^2 in the library walk); the legs' program keeps the planted feet on their anchors.
         shift = smooth_path(shift, fps, DRIFT_SMOOTHING)
         positions += shift
-        self._lock_legs(q, rotations, positions, anchors, fixed, poses.translated(shift[:, None]), fps)
+        self._lock_legs(q, rotations, positions, anchors, fixed, poses.translated(shift[:, None]))
         np.clip(q, r.embodiment.position_lower, r.embodiment.position_upper, out=q)  # before the soles' last lift
-        # The levelled soles: planted ones back on the floor, none below it.
+        # The levelled soles: planted ones back on the floor (up to the heights' averaging), none below it.
         positions[:, 2] += self._heights(self._lowest(self._poses(q, rotations, positions)), contacts, fps)
         return positions
 
@@ -501,13 +501,13 @@ class ClipSolver:
         swing = {side: (ankle, SWING_WEIGHT * _near_contact(planted[side], fade)) for side, ankle in ankles.items()}
         positions = positions + shift
         with r.sideways_weighted(PASS_SIDEWAYS_FACTOR):
-            self._lock_legs(q, rotations, positions, anchors, fixed, self._poses(q, rotations, positions), fps, swing)
+            self._lock_legs(q, rotations, positions, anchors, fixed, self._poses(q, rotations, positions), swing)
         np.clip(q, r.embodiment.position_lower, r.embodiment.position_upper, out=q)
         positions[:, 2] += self._heights(self._lowest(self._poses(q, rotations, positions)), contacts, fps)
         return positions
 
     def _lock_legs(
-        self, q, rotations, positions, anchors: dict[str, np.ndarray], fixed: dict, poses: Pose, fps: float, swing=None
+        self, q, rotations, positions, anchors: dict[str, np.ndarray], fixed: dict, poses: Pose, swing=None
     ) -> None:
         """The leg program: the legs' own targets, and over each contact phase
         the planted ankle on its anchor with its sole level (and, given

@@ -196,13 +196,14 @@ class Retargeter:
         (the neutral solve; the balance pass, which sways the pelvis over feet
         that stay)."""
         targets = [t for part in self.parts for t, key in part.targets if isinstance(key, tuple) and key[0] == "side"]
+        weights = [target.weight for target in targets]
         for target in targets:
             target.weight *= factor
         try:
             yield
         finally:
-            for target in targets:
-                target.weight /= factor
+            for target, weight in zip(targets, weights):
+                target.weight = weight
 
     def stance_of(self, key: tuple) -> SidewaysStance:
         """The `SidewaysStance` of a sideways target's key."""

@@ -59,15 +59,15 @@ def low_passed(src: dict[str, np.ndarray], fps: float, sigma: float) -> dict[str
     `sigma` s), but the fingers' moved with their hand as a rigid body: each
     finger landmark keeps its place in its hand's frame, so the hand's shape
     is the source's (low-passed point by point, a turning hand's fingers
-    would seem to bend, and their parts be solved again on every frame)."""
+    would seem to bend: the CMU finger test's still fingers moved 0.09 rad)."""
     out = {name: smooth(points, fps, sigma) for name, points in src.items()}
     raw, moved = source_frames(src), source_frames(out)
     for side in SIDES:
-        frame, origin = f"{side}_hand", f"{side}_hand"
-        if frame not in raw:
+        hand = f"{side}_hand"  # the hand's frame, and its origin landmark
+        if hand not in raw:
             continue
-        turn = moved[frame] @ np.swapaxes(raw[frame], -1, -2)
+        turn = moved[hand] @ np.swapaxes(raw[hand], -1, -2)
         for name in src:
             if name.startswith(f"{side}_") and any(f"_{finger}_" in name for finger in FINGERS):
-                out[name] = out[origin] + np.einsum("tij,tj->ti", turn, src[name] - src[origin])
+                out[name] = out[hand] + np.einsum("tij,tj->ti", turn, src[name] - src[hand])
     return out
