@@ -259,13 +259,14 @@ BLOCK = 64  # frames per cost term of the program (its Hessian is block-diagonal
 
 def second_rate_matrix(frames: int, fps: float) -> sp.csr_matrix:
     """`smoothed_rate(., fps, 2)` as a sparse (T, T) matrix (it is linear):
-    the centred moving average of `smooth` (the ends repeated), then
-    `np.gradient` twice (one-sided at the ends)."""
+    the centred `moving_average` (the ends repeated), then `np.gradient`
+    twice (one-sided at the ends)."""
     window = max(1, int(round(SMOOTHING * fps)))
     rows = np.repeat(np.arange(frames), window)
     columns = np.clip(rows + np.tile(np.arange(-(window // 2), (window - 1) // 2 + 1), frames), 0, frames - 1)
     average = sp.csr_matrix((np.full(len(rows), 1.0 / window), (rows, columns)), shape=(frames, frames))
-    return (_gradient_matrix(frames, fps) @ _gradient_matrix(frames, fps) @ average).tocsr()
+    gradient = _gradient_matrix(frames, fps)
+    return (gradient @ gradient @ average).tocsr()
 
 
 def _gradient_matrix(frames: int, fps: float) -> sp.csr_matrix:

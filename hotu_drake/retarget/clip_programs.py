@@ -44,7 +44,7 @@ import numpy as np
 from pydrake.solvers import MathematicalProgram, OsqpSolver, SolverOptions
 
 from hotu_drake.embodiment.spec import SIDES
-from hotu_drake.motion.synthesis import smooth as smooth_path
+from hotu_drake.motion.synthesis import smooth
 from hotu_drake.retarget.balance import MOST_MOVED, balancing_shift, inside_share, shifted_pressure
 from hotu_drake.retarget.part_ik import FINGER_LEVEL, SHAPE_TOLERANCE, TRUST_REGION
 from hotu_drake.retarget.targets import sideways_target
@@ -432,7 +432,7 @@ class ClipSolver:
         if not len(planted):
             return np.maximum.accumulate(np.maximum(lift_all, 0.0))  # nothing to stand on: only ever up
         on_floor = -np.where(flags[planted], feet[planted], np.inf).min(axis=1)
-        offsets = smooth_path(np.interp(np.arange(self.frames), planted, on_floor), fps, HEIGHT_SMOOTHING)
+        offsets = smooth(np.interp(np.arange(self.frames), planted, on_floor), fps, HEIGHT_SMOOTHING)
         return np.maximum(offsets, lift_all)
 
     def plant_feet(
@@ -465,7 +465,7 @@ class ClipSolver:
                 shift[t, :2] = drift[:2]
         # The drift taken out smoothly: frame-by-frame corrections would shake the body (its centre of mass
         # accelerating at 5-9 m/s^2 in the library walk); the legs' program keeps the planted feet on their anchors.
-        shift = smooth_path(shift, fps, DRIFT_SMOOTHING)
+        shift = smooth(shift, fps, DRIFT_SMOOTHING)
         positions += shift
         self._lock_legs(q, rotations, positions, anchors, fixed, poses.translated(shift[:, None]))
         np.clip(q, r.embodiment.position_lower, r.embodiment.position_upper, out=q)  # before the soles' last lift
