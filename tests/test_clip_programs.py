@@ -292,11 +292,12 @@ def test_fingers_of_one_hand_shape_are_solved_once(monkeypatch):
         return solve_parts(self, *args, levels=levels, **kwargs)
 
     monkeypatch.setattr(clip_programs.ClipSolver, "solve_parts", spy)
-    shared = Retargeter(udh, set(src)).retarget_landmarks(src, 120.0)
-    # The coarse pass's 9 frames (every 8th, and the last) hold 3 shapes: still (0-16), closing (24), closed.
+    # At 60 fps every frame is solved; the coarse pass's 9 frames (every 8th, and the last) hold 3 shapes:
+    # still (0-16), closing (24), closed.
+    shared = Retargeter(udh, set(src)).retarget_landmarks(src, 60.0)
     assert solved_frames == [3]
     monkeypatch.setattr(clip_programs, "shape_runs", lambda shapes: np.arange(len(shapes)))
-    every = Retargeter(udh, set(src)).retarget_landmarks(src, 120.0)
+    every = Retargeter(udh, set(src)).retarget_landmarks(src, 60.0)
     fingers = [i for i, name in enumerate(shared.joint_names) if "_index_" in name or "_thumb_" in name]
     bend = shared.joint_positions[:, shared.joint_names.index("left_index_1")]
     assert bend[-1] - bend[0] > 0.2  # the finger closed
@@ -333,3 +334,34 @@ def test_the_legs_are_left_to_the_legs_program_only_when_it_runs(lock_iterations
     levels = ClipSolver(retargeter, 64, legs=False).levels
     kept = {id(part) for parts in levels.values() for part in parts}
     assert (legs <= kept) == (lock_iterations == 0)
+
+
+def test_a_fast_clip_is_solved_at_the_solve_rate_and_every_planted_frame_between_planted_solved_ones():
+    from hotu_drake.retarget.clip_programs import contacts_on, solved_frames
+
+    assert list(solved_frames(11, 120.0, 60.0)) == [0, 2, 4, 6, 8, 10]
+    assert list(solved_frames(12, 120.0, 60.0)) == [0, 2, 4, 6, 8, 10, 11]  # the last frame too
+    assert len(solved_frames(12, 60.0, 60.0)) == 12 and len(solved_frames(5, 120.0, 60.0)) == 5
+    planted = np.zeros(12, bool)
+    planted[3:8] = True  # frames 3-7: the solved frames 2 and 8 around them are planted as well
+    on_solved = contacts_on({"left": planted}, solved_frames(12, 120.0, 60.0))["left"]
+    assert list(on_solved) == [False, True, True, True, True, False, False]
+
+
+def test_a_clip_solved_at_half_its_rate_keeps_the_every_frame_solution():
+    """The 120 fps walk solved on every other frame and interpolated: joint
+    paths within a few hundredths of a radian of the solve of every frame,
+    the feet no more sliding and no sole under the floor."""
+    source = generate("walk", fps=120.0).slice(0, 241)
+    udh = embodiment.load("udh", "none")
+    half = to_udh(source, "none", RetargetOptions(solve_rate=60.0)).clip
+    every = to_udh(source, "none", RetargetOptions(solve_rate=120.0)).clip
+    assert half.num_frames == every.num_frames == 241
+    difference = np.abs(half.joint_positions - every.joint_positions)
+    assert np.percentile(difference, 99) < 0.02 and difference.max() < 0.06
+    # The contact phases start on a solved frame, up to a frame early, so the steps land a few mm apart.
+    root = np.abs(half.root_position - every.root_position)
+    assert root[:, 2].max() < 0.01 and root[:, :2].max() < 0.05
+    half_figures, every_figures = (report(source, clip, udh, 1.0) for clip in (half, every))
+    assert half_figures["foot_skate_m_per_s"] < every_figures["foot_skate_m_per_s"] + 0.01
+    assert half_figures["foot_penetration_m"] < 1e-4

@@ -25,6 +25,9 @@ streaming path does), and the legs' program holds each planted ankle on
 its anchor with its sole level over each contact phase, along with the
 legs' own targets.
 
+A clip faster than 60 fps (`RetargetOptions.solve_rate`) is solved on
+every k-th frame and interpolated back to its own rate (`retarget_clip`).
+
 Balance (`balance`, on legged robots with a floating base): the body is
 shifted sideways so that the clip's centre of pressure comes inside its
 planted soles (a ZMP filter, one convex program over the clip,
@@ -665,6 +668,70 @@ def retarget_clip(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Joint positions (T, n), root rotations (T, 3, 3) and root positions
     (T, 3) of a whole clip, by the `Retargeter` `retargeter`.
+
+    A clip faster than `RetargetOptions.solve_rate` is solved on every k-th
+    frame (`solved_frames`), the last one included, and brought back to its
+    own rate: the joints' paths cubic (`hermite`; the fingers' linear), the
+    root's rotations (and a planar base) the source's own at every frame,
+    and the root's positions the source's path plus the solve's corrections
+    to it (feet planted, balance) interpolated, with no sole below the
+    floor. A human clip is low-passed to about 8 Hz first, so a 60 fps solve
+    keeps what it has; the support margins (`retargeter.margins`) are the
+    solved frames', each frame taking its nearest solved frame's.
+    """
+    r = retargeter
+    frames = len(next(iter(src.values())))
+    solved = solved_frames(frames, fps, r.options.solve_rate)
+    if len(solved) == frames:
+        return _retarget_solved(r, src, src_frames, contacts, ratio, fps)
+    on_solved = (_take(src, solved), _take(src_frames, solved), contacts_on(contacts, solved))
+    q_solved, _, positions_solved = _retarget_solved(r, *on_solved, ratio, fps * (len(solved) - 1) / (frames - 1))
+    everywhere = np.arange(frames)
+    base, rotations, positions = r.root_path(src, src_frames, ratio)
+    q = np.empty((frames, q_solved.shape[1]))
+    fingers = sorted({j for part in r.parts if part.level == FINGER_LEVEL for j in part.problem.joints})
+    rest = np.setdiff1d(np.arange(q.shape[1]), fingers)
+    q[:, rest] = hermite(solved, q_solved[:, rest], everywhere)
+    for j in fingers:  # a held hand shape stays held (a cubic would overshoot it)
+        q[:, j] = np.interp(everywhere, solved, q_solved[:, j])
+    if base is not None:  # a planar base follows the source at every frame
+        q[:, r.base] = base
+    np.clip(q, r.embodiment.position_lower, r.embodiment.position_upper, out=q)
+    positions = positions + hermite(solved, positions_solved - positions[solved], everywhere)
+    if r.legged and r.soles.feet:  # between solved frames a sole may dip below the floor by a fraction of a mm
+        poses = r.tree.forward_frames(q, rotations, positions, r._body_groups)
+        lowest = np.min([r.soles.lowest_frames(poses, side) for side in r.soles.feet], axis=0)
+        positions[:, 2] += np.maximum(-lowest, 0.0)
+    after = np.minimum(np.searchsorted(solved, everywhere), len(solved) - 1)
+    nearest = np.where(solved[after] - everywhere <= everywhere - solved[np.maximum(after - 1, 0)], after, after - 1)
+    r.margins = {key: value[np.maximum(nearest, 0)] for key, value in r.margins.items()}
+    return q, rotations, positions
+
+
+def solved_frames(frames: int, fps: float, rate: float) -> np.ndarray:
+    """The frames a whole-clip solve works on: every k-th (k the largest
+    that keeps `rate` or more a second) and the last; all of a short clip."""
+    stride = max(int(fps // rate), 1)
+    if stride == 1 or frames < 4 * stride:
+        return np.arange(frames)
+    return np.unique(np.r_[np.arange(0, frames, stride), frames - 1])
+
+
+def contacts_on(contacts: dict, solved: np.ndarray) -> dict:
+    """Foot contacts on the `solved` frames: planted where the foot is
+    planted on any frame nearer than the next solved one, so every planted
+    frame lies between two planted solved frames (both on the foot's
+    anchor) and an interpolated frame does not slide."""
+    reach = int(np.max(np.diff(solved))) - 1 if len(solved) > 1 else 0
+    window = np.ones(2 * reach + 1)
+    near = {side: np.convolve(flags.astype(float), window, mode="same") for side, flags in contacts.items()}
+    return {side: count[solved] > 0.0 for side, count in near.items()}
+
+
+def _retarget_solved(
+    retargeter, src: dict, src_frames: dict, contacts: dict, ratio: float, fps: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`retarget_clip` on every frame it is given.
 
     Coarse to fine: the programs first converge on every `coarse_stride`-th
     frame from the standing pose; the joint paths interpolated from them

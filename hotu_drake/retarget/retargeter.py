@@ -76,6 +76,8 @@ class RetargetOptions:
     coarse_tolerance: float = 0.04
     coarse_quantile: float = 0.99
     coarse_stride: int = 8  # every this many frames of the clip (1: no coarse pass)
+    # Whole clip: a faster clip is solved at this rate or a little above (every k-th frame) and interpolated.
+    solve_rate: float = 60.0
     fine_iterations: int = 1  # then over all frames, of the levels but the legs'
     lock_iterations: int = 1  # and of the legs' program, which solves the legs and plants the feet
     sweeps: int = 2  # at most this many passes over all parts per frame (30 fps)
