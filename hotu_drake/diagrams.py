@@ -75,6 +75,7 @@ from hotu_drake.scenario import (
     Scenario,
     SkillCheckpoint,
     StandingPose,
+    WholeBodyTracking,
 )
 from hotu_drake.systems.base_command import AddPlanarBaseCommand
 from hotu_drake.systems.interaction_graph import GOAL_SIZE, AddInteractionGraph, InteractionGraphSystem
@@ -87,6 +88,7 @@ from hotu_drake.systems.policy import AddPolicy, load_policy
 from hotu_drake.systems.reference import AddReferenceMotion, ReferenceMotionSource
 from hotu_drake.systems.skill import AddSkillPolicy, load_skill_policy
 from hotu_drake.systems.transfer_reference import AddTransferReference, TransferReference
+from hotu_drake.systems.whole_body import AddWholeBodyController
 
 __all__ = [
     "AddScenario",
@@ -415,6 +417,21 @@ def _(driver: ReferenceTracking, parts: DiagramParts) -> OutputPort:
 
 
 @add_driver.register
+def _(driver: WholeBodyTracking, parts: DiagramParts) -> OutputPort:
+    controller = AddWholeBodyController(
+        parts.builder,
+        parts.plant,
+        parts.model,
+        parts.embodiment,
+        parts.clip,
+        1.0 / parts.scenario.control_rate,
+        driver.loop,
+    )
+    parts.outputs["whole_body_torques"] = controller.GetOutputPort("torques")
+    return controller.GetOutputPort("desired_state")
+
+
+@add_driver.register
 def _(driver: PolicyCheckpoint, parts: DiagramParts) -> OutputPort:
     goal = GOAL_SIZE if parts.graph is not None else 0  # a one-level task policy also sees the goal
     network, meta = load_policy(parts.scenario.resolve(driver.checkpoint), parts.embodiment, goal)
@@ -535,7 +552,7 @@ def _initial_playback(scenario: Scenario, clip: MotionClip | None) -> ClipPlayba
     """The reference the robot starts in (reference state initialisation), if any."""
     if clip is None or scenario.initial.reference_time < 0:
         return None
-    loop = scenario.driver.loop if isinstance(scenario.driver, ReferenceTracking) else True
+    loop = scenario.driver.loop if isinstance(scenario.driver, ReferenceTracking | WholeBodyTracking) else True
     return ClipPlayback(clip, loop, start_time=scenario.initial.reference_time)
 
 

@@ -116,7 +116,22 @@ class BaseTwist:
     standing pose. It drives the built-in PD (implicit controller)."""
 
 
-Driver = StandingPose | ReferenceTracking | PolicyCheckpoint | SkillCheckpoint | ActionInput | BaseTwist
+@dataclass
+class WholeBodyTracking:
+    """The whole-body controller (`systems.whole_body.WholeBodyController`)
+    performs a reference motion: a library motion retargeted onto the
+    scenario's embodiment, or a `.npz` clip of it (as `!ReferenceTracking`
+    takes), looping with its root motion or holding its end. It solves its
+    QP at the scenario's `control_rate` and drives the built-in PD
+    (controller: implicit)."""
+
+    motion: str = "walk"
+    loop: bool = True
+
+
+Driver = (
+    StandingPose | ReferenceTracking | PolicyCheckpoint | SkillCheckpoint | ActionInput | BaseTwist | WholeBodyTracking
+)
 
 
 # --- the scenario --------------------------------------------------------------------
@@ -207,7 +222,7 @@ class Scenario:
     @property
     def reference_motion(self) -> str:
         """The motion this scenario tracks or starts from ("" for none)."""
-        tracked = self.driver.motion if isinstance(self.driver, ReferenceTracking) else ""
+        tracked = self.driver.motion if isinstance(self.driver, ReferenceTracking | WholeBodyTracking) else ""
         return self.initial.motion or tracked
 
     def resolve(self, path: str) -> Path:
@@ -253,8 +268,10 @@ class Scenario:
                 source,
                 "duration",
             )
-        if isinstance(self.driver, ReferenceTracking) and not self.driver.motion:
-            raise InputError("!ReferenceTracking needs a motion", source, "driver.motion")
+        if isinstance(self.driver, ReferenceTracking | WholeBodyTracking) and not self.driver.motion:
+            raise InputError(f"!{type(self.driver).__name__} needs a motion", source, "driver.motion")
+        if isinstance(self.driver, WholeBodyTracking) and self.controller != "implicit":
+            raise InputError("!WholeBodyTracking drives the built-in PD (controller: implicit)", source, "driver")
         if self.initial.reference_time >= 0 and not self.reference_motion:
             raise InputError(
                 "needs a reference motion (initial.motion or driver !ReferenceTracking)",

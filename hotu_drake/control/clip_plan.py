@@ -1,0 +1,160 @@
+"""What the whole-body controller tracks along a clip of its embodiment.
+
+The clip's state at any time (a looping clip with its root motion: each
+pass starts where the last one ended, turned as it ended), its contact
+schedule, and a centre-of-mass path planned by Drake's `ZmpPlanner` from
+the clip's own centre of pressure (the linear inverted pendulum at the
+clip's mean centre-of-mass height), whose LQR feedback gives the CoM
+acceleration for the robot's actual CoM state: a pushed robot's CoM is
+brought back along the plan, not merely pulled to where the clip is.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.multibody.math import SpatialVelocity
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.planning import ZmpPlanner
+from pydrake.trajectories import PiecewisePolynomial
+
+from hotu_drake.embodiment import Embodiment
+from hotu_drake.motion.clip import MotionClip
+from hotu_drake.motion.playback import ClipPlayback
+from hotu_drake.motion.synthesis import smooth
+from hotu_drake.plant import set_robot_state
+from hotu_drake.rotations import heading_yaw, quat_to_matrix, rot_z
+
+GRAVITY = 9.81
+PRESSURE_SMOOTHING = 0.05  # s: the clip's CoM acceleration averaged over this before it becomes a ZMP path
+PLAN_WEIGHTS = (np.eye(2), 1e-3 * np.eye(2))  # ZmpPlanner's Qy (on the ZMP's error) and R (on its input)
+HOLD_AFTER = 1.0  # s: a clip that does not loop is planned past its end, standing still
+
+
+class Planar:
+    """x -> R x + s with R a turn about z: where pass k of a loop puts the clip."""
+
+    def __init__(self, rotation: np.ndarray | None = None, shift: np.ndarray | None = None):
+        self.rotation = np.eye(3) if rotation is None else rotation
+        self.shift = np.zeros(3) if shift is None else shift
+
+    def __matmul__(self, other: Planar) -> Planar:
+        return Planar(self.rotation @ other.rotation, self.rotation @ other.shift + self.shift)
+
+    def inverse(self) -> Planar:
+        return Planar(self.rotation.T, -self.rotation.T @ self.shift)
+
+    def point(self, x: np.ndarray) -> np.ndarray:
+        return self.rotation @ x + self.shift
+
+
+class ClipPlan:
+    """A clip of `embodiment` as the controller's reference, on `plant` (a
+    plant holding that embodiment as `model`; `context`, one of its
+    contexts, is scratch space while the CoM path is planned)."""
+
+    def __init__(self, clip: MotionClip, plant: MultibodyPlant, model, embodiment: Embodiment, context, loop: bool):
+        self.clip, self.loop, self.embodiment = clip, loop, embodiment
+        self.plant, self.model = plant, model
+        self.playback = ClipPlayback(clip, loop=False)
+        self.period = (clip.num_frames - 1) / clip.fps
+        self._step = Planar()  # what one pass of a loop does to the root: turn, then shift
+        if loop and embodiment.floating_base:
+            ends = quat_to_matrix(clip.root_quaternion[[0, -1]])
+            turn = rot_z(float(heading_yaw(ends[1]) - heading_yaw(ends[0])))
+            shift = clip.root_position[-1] - turn @ clip.root_position[0]
+            self._step = Planar(turn, np.array([shift[0], shift[1], 0.0]))
+        self.contacts = {name: clip.contact(name).astype(bool) for name in clip.contact_names}
+        self._plan_com(context)
+
+    # --- the clip's state ------------------------------------------------------
+
+    def pass_at(self, time: float) -> tuple[int, float]:
+        """The pass (0, 1, ...) of a looping clip at `time`, and the clip time within it."""
+        if not self.loop or self.period <= 0.0:
+            return 0, min(max(time, 0.0), self.period)
+        index = int(np.floor(max(time, 0.0) / self.period))
+        return index, time - index * self.period
+
+    def placement(self, index: int) -> Planar:
+        """Where pass `index` of a loop puts the clip (pass 0: where it is)."""
+        out = Planar()
+        for _ in range(index):
+            out = self._step @ out
+        return out
+
+    def set_reference(self, context, time: float) -> None:
+        """Set `context` (of the plan's plant) to the clip's state at `time`."""
+        index, clip_time = self.pass_at(time)
+        set_robot_state(self.plant, context, self.model, self.embodiment, self.playback, clip_time)
+        if index == 0 or not self.embodiment.floating_base:
+            return
+        placement = self.placement(index)
+        root = self.plant.GetBodyByName(self.embodiment.spec.root.name, self.model)
+        pose = self.plant.GetFreeBodyPose(context, root)
+        velocity = self.plant.EvalBodySpatialVelocityInWorld(context, root)
+        turn = placement.rotation
+        self.plant.SetFreeBodyPose(context, root, RigidTransform(RotationMatrix(turn), placement.shift) @ pose)
+        self.plant.SetFreeBodySpatialVelocity(
+            context, root, SpatialVelocity(turn @ velocity.rotational(), turn @ velocity.translational())
+        )
+
+    def planted(self, time: float) -> dict[str, bool]:
+        """Per contact name (`left_foot`, `right_foot`), whether the clip has that foot down at `time`."""
+        _, clip_time = self.pass_at(time)
+        frame = min(max(int(round(clip_time * self.clip.fps)), 0), self.clip.num_frames - 1)
+        return {name: bool(flags[frame]) for name, flags in self.contacts.items()}
+
+    # --- the centre of mass --------------------------------------------------------
+
+    def _plan_com(self, context) -> None:
+        """The clip's CoM path and its ZMP path, and the ZmpPlanner over them:
+        three passes of a loop (the controller uses the middle one, so the
+        plan's preview never sees an end), or the clip and a still stand."""
+        clip, plant, fps = self.clip, self.plant, self.clip.fps
+        passes = 3 if self.loop else 1
+        times, com = [], []
+        for index in range(passes):
+            for frame in range(clip.num_frames - (1 if index < passes - 1 else 0)):
+                time = index * self.period + frame / fps
+                self.set_reference(context, time)
+                times.append(time)
+                com.append(plant.CalcCenterOfMassPositionInWorld(context, [self.model]))
+        times, com = np.array(times), np.array(com)
+        if not self.loop:
+            extra = times[-1] + np.arange(1, int(HOLD_AFTER * fps) + 1) / fps
+            times, com = np.r_[times, extra], np.vstack([com, np.repeat(com[-1:], len(extra), axis=0)])
+        velocity = np.gradient(com, 1.0 / fps, axis=0)
+        acceleration = smooth(np.gradient(velocity, 1.0 / fps, axis=0), fps, PRESSURE_SMOOTHING)
+        self.com_times, self.com, self.com_velocity, self.com_acceleration = times, com, velocity, acceleration
+        self.height = float(np.mean(com[:, 2]))
+        self.zmp = com[:, :2] - com[:, 2:3] / (GRAVITY + acceleration[:, 2:3]) * acceleration[:, :2]
+        self.planner = ZmpPlanner()
+        start = np.r_[com[0, :2], velocity[0, :2]]
+        zmp = PiecewisePolynomial.FirstOrderHold(times, self.zmp.T)
+        self.planner.Plan(zmp, start, self.height, GRAVITY, *PLAN_WEIGHTS)
+
+    def _to_plan(self, time: float) -> tuple[Planar, float]:
+        """The map from the world at `time` into the planned pass, and the plan's time."""
+        index, clip_time = self.pass_at(time)
+        if not self.loop:
+            return Planar(), clip_time
+        return self.placement(1) @ self.placement(index).inverse(), clip_time + self.period
+
+    def com_reference(self, time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The clip's CoM position, velocity and acceleration (world) at `time`."""
+        to_plan, at = self._to_plan(time)
+        back = to_plan.inverse()
+        position, velocity, acceleration = (
+            np.array([np.interp(at, self.com_times, values[:, i]) for i in range(3)])
+            for values in (self.com, self.com_velocity, self.com_acceleration)
+        )
+        return back.point(position), back.rotation @ velocity, back.rotation @ acceleration
+
+    def com_acceleration_for(self, time: float, com: np.ndarray, com_velocity: np.ndarray) -> np.ndarray:
+        """The horizontal CoM acceleration (2,) the ZMP plan's LQR asks of a
+        robot whose CoM is at `com` moving at `com_velocity`, at `time`."""
+        to_plan, at = self._to_plan(time)
+        position, velocity = to_plan.point(com), to_plan.rotation @ com_velocity
+        acceleration = self.planner.ComputeOptimalCoMdd(at, np.r_[position[:2], velocity[:2]])
+        return (to_plan.rotation.T @ np.r_[acceleration, 0.0])[:2]

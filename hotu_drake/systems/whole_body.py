@@ -1,0 +1,259 @@
+"""WholeBodyController: performs a clip in the plant by one QP per control step.
+
+At each control step the controller sets its own copy of the robot's
+`MultibodyPlant` to the measured state and solves the whole-body QP
+(`control.whole_body_qp`): centre of mass along the clip's ZMP plan
+(`control.clip_plan`, with the plan's LQR feedback), pelvis and torso
+orientation, swing feet, the clip's joint posture, the planted soles'
+corners held still, within friction pyramids and torque limits. It acts
+through the path a policy acts through, PD targets for the plant's PD:
+the QP's torque u is folded into the target, q* = q + h v* + u / kp with
+v* = v + h vdot, which (the plant's PD being implicit over the step h)
+gives u when the robot moves as the QP predicts.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import JacobianWrtVariable
+from pydrake.systems.framework import BasicVector, Context, DiagramBuilder, DiscreteValues, LeafSystem
+
+from hotu_drake.control.clip_plan import ClipPlan
+from hotu_drake.control.whole_body_qp import Sole, Solution, Task, WholeBodyQp
+from hotu_drake.embodiment import Embodiment
+from hotu_drake.embodiment.spec import SIDES
+from hotu_drake.motion.clip import MotionClip
+from hotu_drake.plant import actuated_state_indices
+from hotu_drake.rotations import rotation_log
+
+
+@dataclass
+class TrackingGains:
+    """Task weights and PD gains (stiffness; damping is critical unless given) of the controller's tasks."""
+
+    com_weight: float = 100.0
+    com_height_stiffness: float = 50.0
+    body_weight: float = 10.0  # pelvis and torso orientation
+    body_stiffness: float = 100.0
+    swing_weight: float = 20.0
+    swing_stiffness: float = 400.0
+    posture_weight: float = 1.0
+    posture_stiffness: float = 100.0
+
+
+def _damping(stiffness: float) -> float:
+    return 2.0 * np.sqrt(stiffness)
+
+
+def sole_corners(embodiment: Embodiment, link: str) -> np.ndarray:
+    """The lowest points (K, 3) of a foot link's collision shapes, in the link's
+    frame: a sphere's bottom, a box's bottom corners, a capsule's ends' bottoms."""
+    points = []
+    for shape in embodiment.spec.link(link).collisions:
+        centre, rotation = np.asarray(shape.position, float), shape.rotation()
+        if shape.shape == "box":
+            half = np.asarray(shape.size, float) / 2.0
+            corners = np.array(np.meshgrid(*[[-h, h] for h in half])).reshape(3, -1).T
+            points += [centre + rotation @ corner for corner in corners]
+        elif shape.shape == "sphere":
+            points.append(centre - [0.0, 0.0, shape.size[0]])
+        else:
+            half = rotation @ np.array([0.0, 0.0, shape.size[1] / 2.0])
+            points += [centre + half - [0.0, 0.0, shape.size[0]], centre - half - [0.0, 0.0, shape.size[0]]]
+    points = np.array(points)
+    return points[points[:, 2] < points[:, 2].min() + 0.01]
+
+
+class WholeBodyController(LeafSystem):
+    """Tracks a clip of its embodiment with one whole-body QP per control step.
+
+    .. pydrake_system::
+
+        name: WholeBodyController
+        input_ports:
+        - state
+        output_ports:
+        - desired_state
+        - torques
+
+    `state` is the robot model's [q; v]; `desired_state` the [q*; v*] of
+    the plant's PD (actuator order), held between control steps;
+    `torques` the QP's torques u at the last step.
+    """
+
+    def __init__(
+        self,
+        embodiment: Embodiment,
+        clip: MotionClip,
+        control_period: float,
+        loop: bool = True,
+        gains: TrackingGains | None = None,
+    ):
+        super().__init__()
+        self.embodiment, self.period, self.gains = embodiment, control_period, gains or TrackingGains()
+        plant = self._plant = MultibodyPlant(0.0)
+        self._model = embodiment.add_to_plant(plant, builtin_pd=False)
+        plant.Finalize()
+        self._context = plant.CreateDefaultContext()
+        self._reference = plant.CreateDefaultContext()
+        self._nearby = plant.CreateDefaultContext()  # the reference just before and after, for its accelerations
+        self._reference_accelerations = np.zeros(plant.num_velocities())
+        self._step = 0.5 / clip.fps
+        self.plan = ClipPlan(clip, plant, self._model, embodiment, self._reference, loop)
+        self._soles = {
+            f"{side}_foot": Sole(plant.GetBodyByName(embodiment.key_bodies[f"{side}_foot"]), corners)
+            for side in SIDES
+            if f"{side}_foot" in embodiment.key_bodies
+            for corners in [sole_corners(embodiment, embodiment.key_bodies[f"{side}_foot"])]
+        }
+        self.qp = WholeBodyQp(plant, self._soles, embodiment.effort_limits)
+        self._q, self._v = actuated_state_indices(plant, self._model, embodiment.joint_names)
+        self._actuated_v = self._v - plant.num_positions()  # the joints' rows of vdot
+        self._bodies = [plant.GetBodyByName(embodiment.key_bodies[name]) for name in ("pelvis", "torso")]
+        self._bodies = list({body.index(): body for body in self._bodies}.values())
+        self.last: Solution | None = None
+        n = len(embodiment.joint_names)
+        self._state = self.DeclareVectorInputPort("state", plant.num_multibody_states())
+        standing = np.r_[embodiment.standing_pose, np.zeros(n), np.zeros(n)]
+        self.DeclareDiscreteState(standing)
+        self.DeclarePeriodicDiscreteUpdateEvent(control_period, 0.0, self._Update)
+        self.DeclareInitializationDiscreteUpdateEvent(self._Update)
+        self.DeclareVectorOutputPort("desired_state", 2 * n, self._CalcDesiredState, {self.xd_ticket()})
+        self.DeclareVectorOutputPort("torques", n, self._CalcTorques, {self.xd_ticket()})
+
+    def _CalcDesiredState(self, context: Context, output: BasicVector) -> None:
+        n = len(self.embodiment.joint_names)
+        output.SetFromVector(context.get_discrete_state_vector().value()[: 2 * n])
+
+    def _CalcTorques(self, context: Context, output: BasicVector) -> None:
+        n = len(self.embodiment.joint_names)
+        output.SetFromVector(context.get_discrete_state_vector().value()[2 * n :])
+
+    def _Update(self, context: Context, discrete_state: DiscreteValues) -> None:
+        x = self._state.Eval(context)
+        targets, torques = self.act(x, context.get_time())
+        discrete_state.set_value(np.r_[targets, torques])
+
+    def act(self, x: np.ndarray, time: float) -> tuple[np.ndarray, np.ndarray]:
+        """The PD targets [q*; v*] and torques u for robot state `x` ([q; v]) at `time`."""
+        plant, emb, h = self._plant, self.embodiment, self.period
+        plant.SetPositionsAndVelocities(self._context, x)
+        self.plan.set_reference(self._reference, time)
+        self._reference_accelerations = self._accelerations_at(time)
+        self.last = solution = self.qp.solve(self._context, self.tasks(time), self.plan.planted(time))
+        q, v = x[self._q], x[self._v]
+        v_target = v + h * solution.accelerations[self._actuated_v]
+        q_target = q + h * v_target + solution.torques / emb.kp
+        return np.r_[q_target, v_target], solution.torques
+
+    def _accelerations_at(self, time: float) -> np.ndarray:
+        """The reference's generalized accelerations at `time` (a central difference of its velocities)."""
+        plant, nearby, step = self._plant, self._nearby, self._step
+        velocities = []
+        for at in (time - step, time + step):
+            self.plan.set_reference(nearby, max(at, 0.0))
+            velocities.append(plant.GetVelocities(nearby))
+        return (velocities[1] - velocities[0]) / (min(time + step, time + step) - max(time - step, 0.0))
+
+    # --- the tasks -----------------------------------------------------------------
+
+    def tasks(self, time: float) -> list[Task]:
+        """The tracking tasks at `time`, for the state set in the controller's context."""
+        plant, context, reference, gains = self._plant, self._context, self._reference, self.gains
+        world = plant.world_frame()
+        kv = JacobianWrtVariable.kV
+        com = plant.CalcCenterOfMassPositionInWorld(context)
+        com_velocity = plant.CalcCenterOfMassTranslationalVelocityInWorld(context)
+        com_reference, com_reference_velocity, com_reference_acceleration = self.plan.com_reference(time)
+        stiffness = gains.com_height_stiffness
+        height = (
+            com_reference_acceleration[2]
+            + stiffness * (com_reference[2] - com[2])
+            + _damping(stiffness) * (com_reference_velocity[2] - com_velocity[2])
+        )
+        target = np.r_[self.plan.com_acceleration_for(time, com, com_velocity), height]
+        tasks = [
+            Task(
+                plant.CalcJacobianCenterOfMassTranslationalVelocity(context, kv, world, world),
+                plant.CalcBiasCenterOfMassTranslationalAcceleration(context, kv, world, world),
+                target,
+                gains.com_weight,
+            )
+        ]
+        for body in self._bodies:
+            jacobian, bias, target = self._body_rows(body, gains.body_stiffness, position=False)
+            tasks.append(Task(jacobian, bias, target, gains.body_weight))
+        planted = self.plan.planted(time)
+        for name, sole in self._soles.items():
+            if not planted.get(name):
+                jacobian, bias, target = self._body_rows(sole.body, gains.swing_stiffness, position=True)
+                tasks.append(Task(jacobian, bias, target, gains.swing_weight))
+        q, v = plant.GetPositions(context), plant.GetVelocities(context)
+        q_reference, v_reference = plant.GetPositions(reference), plant.GetVelocities(reference)
+        positions = self._q
+        velocities = self._v - plant.num_positions()
+        stiffness = gains.posture_stiffness
+        posture = (
+            self._reference_accelerations[velocities]
+            + stiffness * (q_reference[positions] - q[positions])
+            + _damping(stiffness) * (v_reference[velocities] - v[velocities])
+        )
+        selection = np.zeros((len(positions), plant.num_velocities()))
+        selection[np.arange(len(positions)), velocities] = 1.0
+        tasks.append(Task(selection, np.zeros(len(positions)), posture, gains.posture_weight))
+        return tasks
+
+    def _goal_accelerations(self) -> list:
+        """Every body's spatial acceleration in the reference (world frame), from its accelerations."""
+        return self._plant.CalcSpatialAccelerationsFromVdot(self._reference, self._reference_accelerations)
+
+    def _body_rows(self, body, stiffness: float, position: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A body's orientation rows (and, with `position`, its origin's) toward the reference's:
+        Jacobian, Jdot v and the desired acceleration (PD on the pose error)."""
+        plant, context, reference = self._plant, self._context, self._reference
+        world, frame = plant.world_frame(), body.body_frame()
+        kv = JacobianWrtVariable.kV
+        jacobian = plant.CalcJacobianSpatialVelocity(context, kv, frame, np.zeros(3), world, world)
+        bias = plant.CalcBiasSpatialAcceleration(context, kv, frame, np.zeros(3), world, world)
+        pose, goal = plant.EvalBodyPoseInWorld(context, body), plant.EvalBodyPoseInWorld(reference, body)
+        velocity = plant.EvalBodySpatialVelocityInWorld(context, body)
+        goal_velocity = plant.EvalBodySpatialVelocityInWorld(reference, body)
+        goal_acceleration = self._goal_accelerations()[int(body.index())]
+        damping = _damping(stiffness)
+        turn = rotation_log(goal.rotation().matrix() @ pose.rotation().matrix().T)
+        angular = (
+            goal_acceleration.rotational()
+            + stiffness * turn
+            + damping * (goal_velocity.rotational() - velocity.rotational())
+        )
+        if not position:
+            return jacobian[:3], bias.rotational(), angular
+        linear = (
+            goal_acceleration.translational()
+            + stiffness * (goal.translation() - pose.translation())
+            + damping * (goal_velocity.translational() - velocity.translational())
+        )
+        return jacobian, np.r_[bias.rotational(), bias.translational()], np.r_[angular, linear]
+
+
+def AddWholeBodyController(
+    builder: DiagramBuilder,
+    plant: MultibodyPlant,
+    model,
+    embodiment: Embodiment,
+    clip: MotionClip,
+    control_period: float,
+    loop: bool = True,
+    gains: TrackingGains | None = None,
+) -> WholeBodyController:
+    """Add a `WholeBodyController` named `whole_body_controller` tracking
+    `clip`, its state input wired to the robot `model` of `plant`; connect
+    its `desired_state` to the plant's PD (`AddPdControl`)."""
+    controller = builder.AddNamedSystem(
+        "whole_body_controller", WholeBodyController(embodiment, clip, control_period, loop, gains)
+    )
+    builder.Connect(plant.get_state_output_port(model), controller.GetInputPort("state"))
+    return controller

@@ -1,0 +1,132 @@
+"""The whole-body controller: its QP's forces and torques, and the robot it keeps up."""
+
+import numpy as np
+import pytest
+
+from hotu_drake import embodiment
+from hotu_drake.diagrams import build_simulation
+from hotu_drake.errors import InputError
+from hotu_drake.motion.clip import MotionClip
+from hotu_drake.retarget.pipeline import library_clip
+from hotu_drake.scenario import InitialCondition, Scenario, WholeBodyTracking, load_scenario
+from hotu_drake.systems.perturbation import CubeLaunch
+from hotu_drake.systems.whole_body import WholeBodyController
+
+
+def _standing_clip(emb, seconds: float = 3.0, fps: float = 30.0) -> MotionClip:
+    frames = int(seconds * fps) + 1
+    quaternion = np.tile([1.0, 0.0, 0.0, 0.0], (frames, 1))
+    root = np.tile([0.0, 0.0, emb.standing_root_height], (frames, 1))
+    return MotionClip.from_positions(
+        emb.name,
+        "standing",
+        fps,
+        emb.joint_names,
+        np.tile(emb.standing_pose, (frames, 1)),
+        root,
+        quaternion,
+        contact_names=["left_foot", "right_foot"],
+        contacts=np.ones((frames, 2), bool),
+    )
+
+
+@pytest.fixture(scope="module")
+def h1_squat_controller():
+    emb = embodiment.load("h1", "none")
+    return WholeBodyController(emb, library_clip("squat", "h1", "none"), 1.0 / 60.0, loop=False)
+
+
+def test_the_qp_forces_lie_in_their_friction_pyramids_and_balance_the_dynamics(h1_squat_controller):
+    """At a perturbed state of the squat, the QP's sole forces are unilateral
+    and inside their pyramids, its torques within the limits, and M vdot + h =
+    B u + J' f on every row (the floating base's included)."""
+    from hotu_drake.control.whole_body_qp import FRICTION
+
+    controller = h1_squat_controller
+    plant, context = controller._plant, controller._context
+    controller.plan.set_reference(context, 1.0)
+    x = plant.GetPositionsAndVelocities(context)
+    x[plant.num_positions() :] += 0.2 * np.random.default_rng(0).standard_normal(plant.num_velocities())
+    controller.act(x, 1.0)
+    solution = controller.last
+    assert solution.success
+    forces = np.vstack(list(solution.forces.values()))
+    assert np.all(forces[:, 2] >= -1e-3)
+    assert np.all(np.abs(forces[:, :2]) <= FRICTION * forces[:, 2:3] + 1e-3)
+    assert forces[:, 2].sum() > 0.5 * 9.81 * plant.CalcTotalMass(context)  # the floor carries the robot
+    limits = controller.embodiment.effort_limits
+    assert np.all(np.abs(solution.torques) <= limits + 1e-6)
+    mass = plant.CalcMassMatrix(context)
+    bias = plant.CalcBiasTerm(context) - plant.CalcGravityGeneralizedForces(context)
+    jacobian, _ = controller.qp.contact_jacobians(context)
+    generalized = mass @ solution.accelerations + bias - jacobian.T @ forces.reshape(-1)
+    actuation = plant.MakeActuationMatrix() @ solution.torques
+    scale = np.abs(bias).max()
+    np.testing.assert_allclose(generalized, actuation, atol=1e-3 * scale)
+
+
+def test_the_controller_holds_a_standing_robot_through_a_push(tmp_path):
+    """H1 standing under the controller takes a 2 kg cube at 4 m/s (8 kg m/s)
+    in the back of its torso: its centre of mass is set moving, and it stays
+    up with its pelvis back near where it stood."""
+    emb = embodiment.load("h1", "none")
+    path = _standing_clip(emb).save(tmp_path / "standing_h1.npz")
+    push = CubeLaunch(time=0.5, start=[-1.0, 0.0, 1.25], speed=4.0, mass=2.0, size=0.1, aim_height=0.2)
+    scenario = Scenario(
+        embodiment="h1",
+        driver=WholeBodyTracking(motion=str(path), loop=False),
+        initial=InitialCondition(reference_time=0.0),
+        control_rate=60.0,
+        perturbations=[push],
+    )
+    sim = build_simulation(scenario)
+    plant, fall, context = sim.plant, sim.fall_check(), sim.plant_context()
+    pelvis = plant.GetBodyByName("pelvis", sim.model)
+    start = plant.EvalBodyPoseInWorld(context, pelvis).translation().copy()
+    fastest = 0.0
+    for t in np.arange(0.05, 3.0001, 0.05):
+        sim.simulator.AdvanceTo(t)
+        assert not fall(context), f"fell at {t:.2f} s"
+        velocity = plant.CalcCenterOfMassTranslationalVelocityInWorld(context, [sim.model])
+        fastest = max(fastest, float(np.linalg.norm(velocity[:2])))
+    end = plant.EvalBodyPoseInWorld(context, pelvis).translation()
+    assert fastest > 0.05  # the cube did push it (about 0.14 m/s)
+    assert np.linalg.norm((end - start)[:2]) < 0.05
+
+
+def test_h1_squats_under_the_controller_without_falling():
+    """The library squat on H1, performed: no fall, the pelvis going down
+    and up with the clip's (it lags the clip's by up to 7 cm on the way down),
+    as deep as the clip's within 3 cm."""
+    scenario = Scenario(
+        embodiment="h1",
+        driver=WholeBodyTracking(motion="squat", loop=False),
+        initial=InitialCondition(reference_time=0.0),
+        control_rate=60.0,
+    )
+    sim = build_simulation(scenario)
+    controller = sim.systems["whole_body_controller"]
+    fall, context = sim.fall_check(), sim.plant_context()
+    pelvis = sim.plant.GetBodyByName("pelvis", sim.model)
+    reference_pelvis = controller._plant.GetBodyByName("pelvis")
+    errors, heights, goals = [], [], []
+    for t in np.arange(0.2, controller.plan.period + 1e-9, 0.2):
+        sim.simulator.AdvanceTo(t)
+        assert not fall(context), f"fell at {t:.1f} s"
+        controller.plan.set_reference(controller._reference, t)
+        goal = controller._plant.EvalBodyPoseInWorld(controller._reference, reference_pelvis).translation()
+        heights.append(sim.plant.EvalBodyPoseInWorld(context, pelvis).translation()[2])
+        goals.append(goal[2])
+    errors = np.subtract(heights, goals)
+    assert np.max(np.abs(errors)) < 0.1
+    assert min(heights) < min(goals) + 0.03 and min(goals) < goals[0] - 0.2  # a real squat, performed
+
+
+def test_a_scenario_names_the_whole_body_driver_in_yaml(tmp_path):
+    path = tmp_path / "wbc.yaml"
+    path.write_text("embodiment: h1\ndriver: !WholeBodyTracking {motion: squat, loop: false}\n")
+    scenario = load_scenario(path)
+    assert isinstance(scenario.driver, WholeBodyTracking) and scenario.reference_motion == "squat"
+    path.write_text("embodiment: h1\ncontroller: explicit\ndriver: !WholeBodyTracking {motion: squat}\n")
+    with pytest.raises(InputError, match="built-in PD"):
+        load_scenario(path)
