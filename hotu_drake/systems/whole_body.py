@@ -38,8 +38,11 @@ class TrackingGains:
     com_height_stiffness: float = 50.0
     body_weight: float = 10.0  # pelvis and torso orientation
     body_stiffness: float = 100.0
-    swing_weight: float = 20.0
+    swing_weight: float = 100.0
     swing_stiffness: float = 400.0
+    # A swing foot lands this share of the capture point's error (the CoM's error plus its velocity's over
+    # the pendulum's frequency) away from the clip's footstep: the step that brings a pushed CoM back.
+    step_adjustment: float = 1.0
     posture_weight: float = 1.0
     posture_stiffness: float = 100.0
 
@@ -102,6 +105,7 @@ class WholeBodyController(LeafSystem):
         self._nearby = plant.CreateDefaultContext()  # the reference just before and after, for its accelerations
         self._reference_accelerations = np.zeros(plant.num_velocities())
         self._step = 0.5 / clip.fps
+        self._shift = np.zeros(3)  # where the planted feet stand against the clip's (`_footing`)
         self.plan = ClipPlan(clip, plant, self._model, embodiment, self._reference, loop)
         self._soles = {
             f"{side}_foot": Sole(plant.GetBodyByName(embodiment.key_bodies[f"{side}_foot"]), corners)
@@ -167,14 +171,17 @@ class WholeBodyController(LeafSystem):
         kv = JacobianWrtVariable.kV
         com = plant.CalcCenterOfMassPositionInWorld(context)
         com_velocity = plant.CalcCenterOfMassTranslationalVelocityInWorld(context)
+        planted = self.plan.planted(time)
+        shift = self._footing(planted)
         com_reference, com_reference_velocity, com_reference_acceleration = self.plan.com_reference(time)
+        com_reference = com_reference + shift
         stiffness = gains.com_height_stiffness
         height = (
             com_reference_acceleration[2]
             + stiffness * (com_reference[2] - com[2])
             + _damping(stiffness) * (com_reference_velocity[2] - com_velocity[2])
         )
-        target = np.r_[self.plan.com_acceleration_for(time, com, com_velocity), height]
+        target = np.r_[self.plan.com_acceleration_for(time, com - shift, com_velocity), height]
         tasks = [
             Task(
                 plant.CalcJacobianCenterOfMassTranslationalVelocity(context, kv, world, world),
@@ -186,10 +193,12 @@ class WholeBodyController(LeafSystem):
         for body in self._bodies:
             jacobian, bias, target = self._body_rows(body, gains.body_stiffness, position=False)
             tasks.append(Task(jacobian, bias, target, gains.body_weight))
-        planted = self.plan.planted(time)
+        frequency = np.sqrt(9.81 / max(com_reference[2], 0.1))
+        capture = (com - com_reference) + (com_velocity - com_reference_velocity) / frequency
+        offset = shift + gains.step_adjustment * np.r_[capture[:2], 0.0]
         for name, sole in self._soles.items():
             if not planted.get(name):
-                jacobian, bias, target = self._body_rows(sole.body, gains.swing_stiffness, position=True)
+                jacobian, bias, target = self._body_rows(sole.body, gains.swing_stiffness, position=True, offset=offset)
                 tasks.append(Task(jacobian, bias, target, gains.swing_weight))
         q, v = plant.GetPositions(context), plant.GetVelocities(context)
         q_reference, v_reference = plant.GetPositions(reference), plant.GetVelocities(reference)
@@ -206,13 +215,32 @@ class WholeBodyController(LeafSystem):
         tasks.append(Task(selection, np.zeros(len(positions)), posture, gains.posture_weight))
         return tasks
 
+    def _footing(self, planted: dict[str, bool]) -> np.ndarray:
+        """Where the planted feet stand against the clip's (m, horizontal; their
+        mean): the clip is tracked from where the robot's feet actually
+        landed, so a step placed off the clip's footprint to catch the CoM
+        carries the CoM's and the next step's targets along. Kept through a
+        flight phase."""
+        plant, context, reference = self._plant, self._context, self._reference
+        offsets = [
+            plant.EvalBodyPoseInWorld(context, sole.body).translation()
+            - plant.EvalBodyPoseInWorld(reference, sole.body).translation()
+            for name, sole in self._soles.items()
+            if planted.get(name)
+        ]
+        if offsets:
+            self._shift = np.r_[np.mean(offsets, axis=0)[:2], 0.0]
+        return self._shift
+
     def _goal_accelerations(self) -> list:
         """Every body's spatial acceleration in the reference (world frame), from its accelerations."""
         return self._plant.CalcSpatialAccelerationsFromVdot(self._reference, self._reference_accelerations)
 
-    def _body_rows(self, body, stiffness: float, position: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """A body's orientation rows (and, with `position`, its origin's) toward the reference's:
-        Jacobian, Jdot v and the desired acceleration (PD on the pose error)."""
+    def _body_rows(
+        self, body, stiffness: float, position: bool, offset: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A body's orientation rows (and, with `position`, its origin's) toward the reference's
+        (its origin moved by `offset`): Jacobian, Jdot v and the desired acceleration (PD on the pose error)."""
         plant, context, reference = self._plant, self._context, self._reference
         world, frame = plant.world_frame(), body.body_frame()
         kv = JacobianWrtVariable.kV
@@ -233,7 +261,7 @@ class WholeBodyController(LeafSystem):
             return jacobian[:3], bias.rotational(), angular
         linear = (
             goal_acceleration.translational()
-            + stiffness * (goal.translation() - pose.translation())
+            + stiffness * (goal.translation() + (0.0 if offset is None else offset) - pose.translation())
             + damping * (goal_velocity.translational() - velocity.translational())
         )
         return jacobian, np.r_[bias.rotational(), bias.translational()], np.r_[angular, linear]
