@@ -83,6 +83,27 @@ def test_library_walk_on_each_robot_keeps_its_stance_and_legs_apart(udh_walk, ro
     assert LegContacts(emb).depths(clip).max() <= 0.005
 
 
+@pytest.mark.parametrize("robot", ["h1", "naviai", "walker", "bruce"])
+def test_a_planted_foot_is_flat_on_the_floor(udh_walk, robot):
+    """The library walk's planted soles lie flat (a median within 2 degrees):
+    the foot's neutral direction is the robot's own foot flat at rest, not
+    where its neutral pose left it (NAVIAI's toes stood 6.8 degrees up,
+    Walker's 12.9: on their heels)."""
+    from hotu_drake.retarget.metrics import planted_sole_tilt
+    from hotu_drake.retarget.tree import Tree
+
+    emb = embodiment.load(robot, "none")
+    clip = to_robot(udh_walk, robot, "none").clip
+    contacts = {side: clip.contact(f"{side}_foot").astype(bool) for side in ("left", "right")}
+    tilt = planted_sole_tilt(emb, Tree(emb.spec), clip, contacts)
+    assert tilt["median"] < 2.0, tilt
+    # and the figure sees a tilted sole: the same clip with its ankles pitched 0.2 rad
+    pitched = dataclasses.replace(clip, joint_positions=clip.joint_positions.copy())
+    for name in ("left_ankle_y", "right_ankle_y"):
+        pitched.joint_positions[:, clip.joint_names.index(name)] += 0.2
+    assert planted_sole_tilt(emb, Tree(emb.spec), pitched, contacts)["median"] > 9.0
+
+
 def test_crossed_legs_are_caught_by_the_report():
     """A standing clip with the legs swung across each other: the report says crossed, and how deep they meet."""
     h1 = embodiment.load("h1", "none")

@@ -47,6 +47,7 @@ def clip_rows(name: str, clip: MotionClip, robots: tuple[str, ...] = LEGGED) -> 
                 "seconds": round(stage.seconds, 3),
                 "stance_ratio": figures["stance_ratio"],
                 "leg_penetration_m": figures["leg_penetration_m"],
+                "planted_sole_tilt_deg": figures["planted_sole_tilt_deg"],
                 "foot_skate_m_per_s": figures["foot_skate_m_per_s"],
                 "centre_of_pressure_margin": margin,
                 "torque_over_limit_share": figures.get("torque_over_limit_share"),
@@ -60,9 +61,10 @@ def markdown(rows: list[dict]) -> str:
     """The rows as one Markdown table, with each median's share of the UDH's on the same clip."""
     udh = {row["clip"]: row["stance_ratio"]["median"] for row in rows if row["robot"] == "udh"}
     lines = [
-        "| clip | robot | stance median (least) | / UDH's | leg penetration | CoP inside before | after "
+        "| clip | robot | stance median (least) | / UDH's | leg penetration | planted sole tilt (deg) "
+        "| CoP inside before | after "
         "| least margin after (m) | skate (m/s) | frames over a torque limit | joint most often over (share, most) |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for row in rows:
         stance, margin = row["stance_ratio"], row["centre_of_pressure_margin"]
@@ -73,7 +75,9 @@ def markdown(rows: list[dict]) -> str:
         joint = f"{worst['name']} ({worst['share']:.2f}, {worst['most']}x)" if worst else "none"
         lines.append(
             f"| {row['clip']} | {row['robot']} | {stance['median']:.3f} ({stance['least']:.3f}) | {ratio} "
-            f"| {100 * row['leg_penetration_m']:.1f} cm | {before.get('inside_share', '-')} "
+            f"| {100 * row['leg_penetration_m']:.1f} cm "
+            f"| {row['planted_sole_tilt_deg']['median']} ({row['planted_sole_tilt_deg']['most']}) "
+            f"| {before.get('inside_share', '-')} "
             f"| {after.get('inside_share', '-')} | {after.get('least_m', '-')} | {row['foot_skate_m_per_s']} "
             f"| {row['torque_over_limit_share']} | {joint} |"
         )

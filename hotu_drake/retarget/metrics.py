@@ -96,6 +96,23 @@ def balance_figures(emb: embodiments.Embodiment, clip: MotionClip, contacts: dic
     }
 
 
+def planted_sole_tilt(emb: embodiments.Embodiment, tree: Tree, clip: MotionClip, contacts: dict) -> dict:
+    """How far (degrees) each planted foot's sole is from flat on the floor,
+    median and most over the planted frames: a robot stands on a flat sole
+    (every shipped foot's sole is flat in its link's frame), not on a heel
+    with its toes up."""
+    poses = tree.forward_frames(clip.joint_positions, quat_to_matrix(clip.root_quaternion), clip.root_position)
+    tilts = []
+    for side, planted in contacts.items():
+        link = tree.link_index[emb.key_bodies[f"{side}_foot"]]
+        up = poses.rotations[np.asarray(planted, bool), link, 2, 2]  # the sole's normal, its world z
+        tilts.append(np.degrees(np.arccos(np.clip(up, -1.0, 1.0))))
+    tilt = np.concatenate(tilts) if tilts else np.zeros(0)
+    if not tilt.size:
+        return {"median": None, "most": None}
+    return {"median": round(float(np.median(tilt)), 2), "most": round(float(tilt.max()), 2)}
+
+
 def report(
     source: MotionClip, result: MotionClip, emb: embodiments.Embodiment, seconds: float, margins: dict | None = None
 ) -> dict:
@@ -187,6 +204,7 @@ def report(
             for side in soles.feet
         )
         out["foot_penetration_m"] = round(max(0.0, -lowest), 4)
+        out["planted_sole_tilt_deg"] = planted_sole_tilt(emb, tree, result, contacts)
         # The robot's own stance (feet apart over its standing width), and its legs clear of each other.
         out["stance_ratio"] = stance(emb, dst)
         depths = leg_contacts(emb).depths(result)

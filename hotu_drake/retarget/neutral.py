@@ -22,6 +22,12 @@ part of C out of that plane (a carrying angle, knock-kneed shins) counts:
 an offset within it is a bend the hinge matches anyway.
 
 Calibrated segments: upper arms, thighs, shins and feet (`CALIBRATED`).
+A foot's robot direction is its own at rest (q = 0, its sole flat on the
+floor), not the neutral solve's, and its pitch counts even on a one-joint
+ankle: a human foot flat on the floor then makes a robot foot flat on the
+floor (with the neutral solve's, NAVIAI's planted toes stood 6.8 degrees
+up and Walker's 12.9; H1's and BRUCE's 3.3 and 5.1, their one-joint ankles
+treated as hinges).
 Forearms are left raw: on CURI's Panda arms the wrist landmark moves with
 the wrist joints, so the forearm's neutral offset is not a fixed property of
 the arm, and calibrating it raised CURI's elbow error (8.7 to 12.5 degrees
@@ -93,9 +99,12 @@ def neutral_calibration(retargeter, source_landmarks: set[str]) -> dict:
         frame = "pelvis" if joint in LEG else "chest"
         body = src_frames[frame][0]
         human = body.T @ normalize(src[key[2]][0] - src[key[1]][0], floor=1e-9)
-        robot = body.T @ normalize(r.marks.position(pose, key[2]) - r.marks.position(pose, key[1]), floor=1e-9)
+        if joint == "ankle":  # a foot's neutral is flat on the floor: its links' pose at rest
+            robot = body.T @ normalize(r.rest[key[2]] - r.rest[key[1]], floor=1e-9)
+        else:
+            robot = body.T @ normalize(r.marks.position(pose, key[2]) - r.marks.position(pose, key[1]), floor=1e-9)
         turn = rotation_vector(rotations_between(human, robot))
-        if key[1] in hinges:  # keep what lies out of the hinge's plane
+        if key[1] in hinges and joint != "ankle":  # keep what lies out of the hinge's plane (a foot's pitch counts)
             axis = body.T @ pose.joint_axes[hinges[key[1]]]
             turn = turn - np.dot(turn, axis) * axis
         if np.linalg.norm(turn) < SMALLEST_TURN:  # the neutral solve's residual, not the robot's build
