@@ -47,6 +47,10 @@ class TrackingGains:
     posture_stiffness: float = 100.0
 
 
+POSITION_SHARE = 1.0
+FOOTING_EASING = 0.6  # s: the time constant over which the tracked clip moves to where the feet stand
+
+
 def _damping(stiffness: float) -> float:
     return 2.0 * np.sqrt(stiffness)
 
@@ -194,7 +198,7 @@ class WholeBodyController(LeafSystem):
             jacobian, bias, target = self._body_rows(body, gains.body_stiffness, position=False)
             tasks.append(Task(jacobian, bias, target, gains.body_weight))
         frequency = np.sqrt(9.81 / max(com_reference[2], 0.1))
-        capture = (com - com_reference) + (com_velocity - com_reference_velocity) / frequency
+        capture = POSITION_SHARE * (com - com_reference) + (com_velocity - com_reference_velocity) / frequency
         offset = shift + gains.step_adjustment * np.r_[capture[:2], 0.0]
         for name, sole in self._soles.items():
             if not planted.get(name):
@@ -228,8 +232,9 @@ class WholeBodyController(LeafSystem):
             for name, sole in self._soles.items()
             if planted.get(name)
         ]
-        if offsets:
-            self._shift = np.r_[np.mean(offsets, axis=0)[:2], 0.0]
+        if offsets:  # eased toward the new footing: a stance handed to a foot that landed elsewhere is no jump
+            footing = np.r_[np.mean(offsets, axis=0)[:2], 0.0]
+            self._shift += (footing - self._shift) * (1.0 - np.exp(-self.period / FOOTING_EASING))
         return self._shift
 
     def _goal_accelerations(self) -> list:
