@@ -101,6 +101,10 @@ class WholeBodyQp:
             self._options.SetOption(self._solver.solver_id(), option, value)
         self._guess = np.zeros(n)
 
+    def reset(self) -> None:
+        """Forget the warm start."""
+        self._guess = np.zeros_like(self._guess)
+
     def contact_jacobians(self, context) -> tuple[np.ndarray, np.ndarray]:
         """The soles' corners: their translational Jacobians (3C, nv) and Jdot v (3C,), in the world."""
         plant, world = self.plant, self.plant.world_frame()

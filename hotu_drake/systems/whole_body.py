@@ -6,10 +6,10 @@ At each control step the controller sets its own copy of the robot's
 (`control.clip_plan`, with the plan's LQR feedback), pelvis and torso
 orientation, swing feet, the clip's joint posture, the planted soles'
 corners held still, within friction pyramids and torque limits. It acts
-through the path a policy acts through, PD targets for the plant's PD:
-the QP's torque u is folded into the target, q* = q + h v* + u / kp with
-v* = v + h vdot, which (the plant's PD being implicit over the step h)
-gives u when the robot moves as the QP predicts.
+through the path a policy acts through: an action (normalised PD targets
+within the joints' limits, the velocity targets zero) for the plant's PD,
+the QP's torque folded into the target (`WholeBodyController.act`), so
+its actions are actions a policy could output: a teacher's.
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ from pydrake.systems.framework import BasicVector, Context, DiagramBuilder, Disc
 from hotu_drake.control.clip_plan import ClipPlan
 from hotu_drake.control.whole_body_qp import Sole, Solution, Task, WholeBodyQp
 from hotu_drake.embodiment import Embodiment
+from hotu_drake.embodiment.actions import ActionScaling
 from hotu_drake.embodiment.spec import SIDES
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.plant import actuated_state_indices
@@ -86,9 +87,10 @@ class WholeBodyController(LeafSystem):
         - desired_state
         - torques
 
-    `state` is the robot model's [q; v]; `desired_state` the [q*; v*] of
-    the plant's PD (actuator order), held between control steps;
-    `torques` the QP's torques u at the last step.
+    `state` is the robot model's [q; v]; `desired_state` the [q*; 0] of
+    the plant's PD (actuator order), held between control steps, q* the
+    targets of its action (`act`); `torques` the QP's torques u at the
+    last step.
     """
 
     def __init__(
@@ -110,6 +112,7 @@ class WholeBodyController(LeafSystem):
         self._reference_accelerations = np.zeros(plant.num_velocities())
         self._step = 0.5 / clip.fps
         self._shift = np.zeros(3)  # where the planted feet stand against the clip's (`_footing`)
+        self._scaling = ActionScaling.for_embodiment(embodiment)
         self.plan = ClipPlan(clip, plant, self._model, embodiment, self._reference, loop)
         self._soles = {
             f"{side}_foot": Sole(plant.GetBodyByName(embodiment.key_bodies[f"{side}_foot"]), corners)
@@ -141,21 +144,33 @@ class WholeBodyController(LeafSystem):
         output.SetFromVector(context.get_discrete_state_vector().value()[2 * n :])
 
     def _Update(self, context: Context, discrete_state: DiscreteValues) -> None:
-        x = self._state.Eval(context)
-        targets, torques = self.act(x, context.get_time())
-        discrete_state.set_value(np.r_[targets, torques])
+        action = self.act(self._state.Eval(context), context.get_time())
+        targets = self._scaling.to_targets(action)
+        discrete_state.set_value(np.r_[targets, np.zeros_like(targets), self.last.torques])
 
-    def act(self, x: np.ndarray, time: float) -> tuple[np.ndarray, np.ndarray]:
-        """The PD targets [q*; v*] and torques u for robot state `x` ([q; v]) at `time`."""
+    def act(self, x: np.ndarray, time: float) -> np.ndarray:
+        """The action (normalised PD targets, in [-1, 1], as a policy's) for
+        robot state `x` ([q; v]) at `time`: the QP's torque u folded into the
+        target of the plant's PD, whose velocity target is zero as a policy's
+        is, q* = q + h v' + (u + kd v') / kp with v' = v + h vdot the velocity
+        the QP predicts a step ahead (the PD being implicit over the step h,
+        this gives u when the robot moves as predicted). The QP's solution
+        is kept as `last`."""
         plant, emb, h = self._plant, self.embodiment, self.period
         plant.SetPositionsAndVelocities(self._context, x)
         self.plan.set_reference(self._reference, time)
         self._reference_accelerations = self._accelerations_at(time)
         self.last = solution = self.qp.solve(self._context, self.tasks(time), self.plan.planted(time))
         q, v = x[self._q], x[self._v]
-        v_target = v + h * solution.accelerations[self._actuated_v]
-        q_target = q + h * v_target + solution.torques / emb.kp
-        return np.r_[q_target, v_target], solution.torques
+        predicted = v + h * solution.accelerations[self._actuated_v]
+        targets = q + h * predicted + (solution.torques + emb.kd * predicted) / emb.kp
+        return np.clip(self._scaling.to_action(targets), -1.0, 1.0)
+
+    def reset(self) -> None:
+        """Forget what the controller carried from step to step (the QP's warm
+        start, where the feet stood): a new episode."""
+        self._shift = np.zeros(3)
+        self.qp.reset()
 
     def _accelerations_at(self, time: float) -> np.ndarray:
         """The reference's generalized accelerations at `time` (a central difference of its velocities)."""
