@@ -426,6 +426,7 @@ def _(driver: WholeBodyTracking, parts: DiagramParts) -> OutputPort:
         parts.clip,
         1.0 / parts.scenario.control_rate,
         driver.loop,
+        start_time=max(parts.scenario.initial.reference_time, 0.0),
     )
     parts.outputs["whole_body_torques"] = controller.GetOutputPort("torques")
     return controller.GetOutputPort("desired_state")

@@ -133,11 +133,20 @@ def set_robot_state(
     quaternion, position, omega, linear = reference.root_at(time)
     pose = RigidTransform(Quaternion(quaternion), position)
     if align:
-        yaw = heading_rotation(pose.rotation().matrix())
-        turn = RigidTransform(RotationMatrix(yaw.T), -yaw.T @ [position[0], position[1], 0.0])
-        pose, omega, linear = turn @ pose, yaw.T @ omega, yaw.T @ linear
+        turn = alignment(reference, time)
+        yaw = turn.rotation().matrix()
+        pose, omega, linear = turn @ pose, yaw @ omega, yaw @ linear
     plant.SetFreeBodyPose(plant_context, root, pose)
     plant.SetFreeBodySpatialVelocity(plant_context, root, SpatialVelocity(omega, linear))
+
+
+def alignment(reference: ClipPlayback, time: float) -> RigidTransform:
+    """The turn about z and the shift that bring a clip's root at `time` over
+    the origin facing +x (how a reference start is aligned): the world of
+    an aligned start is this transform of the clip's."""
+    quaternion, position, _, _ = reference.root_at(time)
+    yaw = heading_rotation(RotationMatrix(Quaternion(quaternion)).matrix())
+    return RigidTransform(RotationMatrix(yaw.T), -yaw.T @ [position[0], position[1], 0.0])
 
 
 def _reach(inspector, geometries) -> float:

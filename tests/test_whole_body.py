@@ -2,32 +2,17 @@
 
 import numpy as np
 import pytest
+from pydrake.multibody.math import SpatialVelocity
 
 from hotu_drake import embodiment
+from hotu_drake.control.clip_plan import standing_clip
 from hotu_drake.diagrams import build_simulation
 from hotu_drake.errors import InputError
-from hotu_drake.motion.clip import MotionClip
+from hotu_drake.motion.playback import ClipPlayback
 from hotu_drake.retarget.pipeline import library_clip
 from hotu_drake.scenario import InitialCondition, Scenario, WholeBodyTracking, load_scenario
 from hotu_drake.systems.perturbation import CubeLaunch
 from hotu_drake.systems.whole_body import WholeBodyController
-
-
-def _standing_clip(emb, seconds: float = 3.0, fps: float = 30.0) -> MotionClip:
-    frames = int(seconds * fps) + 1
-    quaternion = np.tile([1.0, 0.0, 0.0, 0.0], (frames, 1))
-    root = np.tile([0.0, 0.0, emb.standing_root_height], (frames, 1))
-    return MotionClip.from_positions(
-        emb.name,
-        "standing",
-        fps,
-        emb.joint_names,
-        np.tile(emb.standing_pose, (frames, 1)),
-        root,
-        quaternion,
-        contact_names=["left_foot", "right_foot"],
-        contacts=np.ones((frames, 2), bool),
-    )
 
 
 @pytest.fixture(scope="module")
@@ -70,7 +55,7 @@ def test_the_controller_holds_a_standing_robot_through_a_push(tmp_path):
     in the back of its torso: its centre of mass is set moving, and it stays
     up with its pelvis back near where it stood."""
     emb = embodiment.load("h1", "none")
-    path = _standing_clip(emb).save(tmp_path / "standing_h1.npz")
+    path = standing_clip(emb, 3.0).save(tmp_path / "standing_h1.npz")
     push = CubeLaunch(time=0.5, start=[-1.0, 0.0, 1.25], speed=4.0, mass=2.0, size=0.1, aim_height=0.2)
     scenario = Scenario(
         embodiment="h1",
@@ -130,3 +115,47 @@ def test_a_scenario_names_the_whole_body_driver_in_yaml(tmp_path):
     path.write_text("embodiment: h1\ncontroller: explicit\ndriver: !WholeBodyTracking {motion: squat}\n")
     with pytest.raises(InputError, match="built-in PD"):
         load_scenario(path)
+
+
+def test_the_teacher_action_is_the_action_the_controller_takes_in_that_state():
+    """Imitation-v0 made with `teacher=True` labels each state with the
+    action the whole-body controller takes in it: at a reference start
+    (aligned to the origin in the environment, not in the diagram) the
+    action of the controller that drives the robot in a diagram; and, the
+    environment stepped with the teacher's actions, those of a controller
+    fed the same states in the clip's frame, step after step."""
+    import gymnasium as gym
+
+    import hotu_drake.envs  # noqa: F401 (registers the environments)
+    from hotu_drake.plant import alignment
+
+    env = gym.make("hotu_drake/Imitation-v0", robot="h1", hands="none", motions=["walk"], teacher=True)
+    _, info = env.reset(seed=0, options={"init": "reference", "clip": 0, "time": 1.0})
+    inner = env.unwrapped
+    scenario = Scenario(
+        embodiment="h1",
+        driver=WholeBodyTracking(motion="walk", loop=False),
+        initial=InitialCondition(reference_time=1.0),
+        control_rate=inner.scenario.control_rate,
+    )
+    in_diagram = build_simulation(scenario).systems["whole_body_controller"]
+    np.testing.assert_allclose(info["teacher_action"], in_diagram.last_action, atol=1e-4)
+    alone = WholeBodyController(inner.embodiment, inner.clips[0], inner.control_period, loop=False)
+    back = alignment(ClipPlayback(inner.clips[0], loop=False), 1.0).inverse()
+    plant, model, context = inner.sim.plant, inner.sim.model, inner._plant_context
+    root = plant.GetBodyByName("pelvis", model)
+    for step in range(4):
+        scratch = plant.CreateDefaultContext()
+        plant.SetPositionsAndVelocities(scratch, model, plant.GetPositionsAndVelocities(context, model))
+        velocity = plant.EvalBodySpatialVelocityInWorld(scratch, root)
+        plant.SetFreeBodyPose(scratch, root, back @ plant.GetFreeBodyPose(scratch, root))
+        turn = back.rotation().matrix()
+        plant.SetFreeBodySpatialVelocity(
+            scratch, root, SpatialVelocity(turn @ velocity.rotational(), turn @ velocity.translational())
+        )
+        expected = alone.act(plant.GetPositionsAndVelocities(scratch, model), 1.0 + step * inner.control_period)
+        np.testing.assert_allclose(info["teacher_action"], expected, atol=1e-4, err_msg=f"step {step}")
+        _, _, terminated, _, info = env.step(info["teacher_action"])
+        assert not terminated
+    assert np.abs(expected - inner.standing_action()).max() > 0.05  # it is walking, not standing
+    env.close()

@@ -31,6 +31,24 @@ PLAN_WEIGHTS = (np.eye(2), 1e-3 * np.eye(2))  # ZmpPlanner's Qy (on the ZMP's er
 HOLD_AFTER = 1.0  # s: a clip that does not loop is planned past its end, standing still
 
 
+def standing_clip(embodiment: Embodiment, seconds: float = 2.0, fps: float = 30.0) -> MotionClip:
+    """`embodiment` standing still in its standing pose, both feet down: the
+    clip a controller holds a robot up by (a teacher's clip for a start that
+    follows no reference)."""
+    frames = int(round(seconds * fps)) + 1
+    return MotionClip.from_positions(
+        embodiment.name,
+        "standing",
+        fps,
+        embodiment.joint_names,
+        np.tile(embodiment.standing_pose, (frames, 1)),
+        np.tile([0.0, 0.0, embodiment.standing_root_height], (frames, 1)),
+        np.tile([1.0, 0.0, 0.0, 0.0], (frames, 1)),
+        contact_names=["left_foot", "right_foot"],
+        contacts=np.ones((frames, 2), bool),
+    )
+
+
 class Planar:
     """x -> R x + s with R a turn about z: where pass k of a loop puts the clip."""
 

@@ -24,6 +24,8 @@ from dataclasses import dataclass
 
 import gymnasium as gym
 import numpy as np
+from pydrake.math import RigidTransform
+from pydrake.multibody.math import SpatialVelocity
 
 from hotu_drake import embodiment as embodiments
 from hotu_drake.diagrams import Simulation, build_simulation
@@ -33,7 +35,7 @@ from hotu_drake.errors import InputError, check_bool, check_choice, check_number
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.playback import ClipPlayback
 from hotu_drake.objects import SceneObject, place_objects
-from hotu_drake.plant import FallCheck, set_robot_state
+from hotu_drake.plant import FallCheck, alignment, set_robot_state
 from hotu_drake.scenario import LIMITS, ActionInput, InitialCondition, Scenario, load_scenario
 
 log = logging.getLogger("hotu_drake.envs")
@@ -110,9 +112,13 @@ class DiagramEnv(gym.Env):
         reference_init_probability: float = 0.8,
         drop_height: float = 0.05,
         termination_height: float = 0.5,
+        teacher: bool = False,
     ):
         """`scenario` as `environment_scenario` makes it; `embodiment`
-        overrides its robot (e.g. a resized UDH). Bad keywords raise `InputError`."""
+        overrides its robot (e.g. a resized UDH). With `teacher`, every
+        step's `info["teacher_action"]` is the whole-body controller's
+        action for the state the robot is in (`teacher_action`). Bad
+        keywords raise `InputError`."""
         where = type(self).__name__
         amp_history = check_number(amp_history, "amp_history", where, low=1, high=MAX_AMP_HISTORY, integer=True)
         reference_init_probability = check_number(
@@ -120,6 +126,7 @@ class DiagramEnv(gym.Env):
         )
         drop_height = check_number(drop_height, "drop_height", where, low=0.0, high=1.0, unit="m")
         termination_height = check_number(termination_height, "termination_height", where, low=0.0, high=1.0)
+        self.teacher = check_bool(teacher, "teacher", where)
         substeps = round(1.0 / (scenario.control_rate * scenario.time_step))
         if substeps < 1 or abs(substeps * scenario.time_step * scenario.control_rate - 1.0) > 1e-9:
             # Otherwise actions would be held, and AMP frames spaced, unevenly.
@@ -160,6 +167,12 @@ class DiagramEnv(gym.Env):
         self._scratch_observer = self._observer.CreateDefaultContext()
         self.timings = EnvTimings()
         self.init_kind = "default"
+        # The teacher: a whole-body controller per reference clip (None: the standing pose), built when first
+        # asked for; the episode's clip, its clip time at the start, and where its frame sits in the world.
+        self._teachers: dict = {}
+        self._teacher_clip: int | None = None
+        self._teacher_start = 0.0
+        self._teacher_frame = RigidTransform()
 
     # -- what subclasses extend ------------------------------------------------
 
@@ -187,17 +200,22 @@ class DiagramEnv(gym.Env):
         if kind is None:
             kind = "reference" if self.np_random.random() < self.reference_init_probability else "default"
         history = None
+        self._teacher_clip, self._teacher_start, self._teacher_frame = None, 0.0, RigidTransform()
         if kind == "reference":
             index = options.get("clip", int(self.np_random.integers(len(self.clips))))
             clip = self.clips[index]
             start = options.get("time", float(self.np_random.uniform(0.0, max(clip.duration - 0.1, 0.0))))
             self._set_reference_state(self._playbacks[index], start)
+            self._teacher_clip, self._teacher_start = index, start
+            self._teacher_frame = alignment(self._playbacks[index], start)
             # The AMP history before the start is the clip's own past frames.
             past = start - self.control_period * np.arange(self.amp_history - 1, 0, -1)
             history = [self.clip_amp_frame(index, t) for t in past]
         else:
             self._set_default_state(float(self.np_random.uniform(0.0, self.drop_height)))
         self.init_kind = kind
+        if self.teacher:
+            self._teacher().reset()
         self._place_objects()
         self._place_task()
         self._action_port.FixValue(context, self._standing_action)
@@ -345,7 +363,46 @@ class DiagramEnv(gym.Env):
     def _info(self, terminated: bool) -> dict:
         frames = np.asarray(self._history, dtype=np.float32)
         amp = {part: frames[:, s] for part, s in self.part_slices.items()}
-        return {"amp": amp, "time": self._context.get_time(), "init": self.init_kind}
+        info = {"amp": amp, "time": self._context.get_time(), "init": self.init_kind}
+        if self.teacher:
+            info["teacher_action"] = self.teacher_action().astype(np.float32)
+        return info
+
+    # -- the teacher -----------------------------------------------------------
+
+    def _teacher(self):
+        """The whole-body controller of the episode's clip (the standing pose after a default start)."""
+        from hotu_drake.control.clip_plan import standing_clip
+        from hotu_drake.systems.whole_body import WholeBodyController
+
+        key = self._teacher_clip
+        if key not in self._teachers:
+            clip = self.clips[key] if key is not None else standing_clip(self.embodiment)
+            self._teachers[key] = WholeBodyController(self.embodiment, clip, self.control_period, loop=False)
+        return self._teachers[key]
+
+    def teacher_action(self) -> np.ndarray:
+        """The whole-body controller's action (normalised PD targets, a
+        policy's) for the robot's state now and the reference's time now:
+        the episode's clip from where a reference start began it (the
+        standing pose after a default start), the state taken into the
+        clip's own frame (a reference start turns and moves the clip to
+        start at the origin facing +x). The controller carries its warm
+        start and footing from one call to the next within an episode, as
+        it would running in the loop, so ask once per step."""
+        plant, model, scratch = self.sim.plant, self.sim.model, self._scratch_plant
+        plant.SetPositionsAndVelocities(scratch, model, plant.GetPositionsAndVelocities(self._plant_context, model))
+        if self.embodiment.floating_base and not self.scenario.fixed_base:
+            back = self._teacher_frame.inverse()
+            pose = plant.GetFreeBodyPose(scratch, self._root)
+            velocity = plant.EvalBodySpatialVelocityInWorld(scratch, self._root)
+            turn = back.rotation().matrix()
+            plant.SetFreeBodyPose(scratch, self._root, back @ pose)
+            plant.SetFreeBodySpatialVelocity(
+                scratch, self._root, SpatialVelocity(turn @ velocity.rotational(), turn @ velocity.translational())
+            )
+        state = plant.GetPositionsAndVelocities(scratch, model)
+        return self._teacher().act(state, self._teacher_start + self._context.get_time())
 
     def pelvis_height(self) -> float:
         return self._fall.pelvis_height(self._plant_context)

@@ -100,8 +100,11 @@ class WholeBodyController(LeafSystem):
         control_period: float,
         loop: bool = True,
         gains: TrackingGains | None = None,
+        start_time: float = 0.0,
     ):
+        """`start_time`: the clip's time at the diagram's time 0 (a run that starts partway through it)."""
         super().__init__()
+        self.start_time = start_time
         self.embodiment, self.period, self.gains = embodiment, control_period, gains or TrackingGains()
         plant = self._plant = MultibodyPlant(0.0)
         self._model = embodiment.add_to_plant(plant, builtin_pd=False)
@@ -126,12 +129,14 @@ class WholeBodyController(LeafSystem):
         self._bodies = [plant.GetBodyByName(embodiment.key_bodies[name]) for name in ("pelvis", "torso")]
         self._bodies = list({body.index(): body for body in self._bodies}.values())
         self.last: Solution | None = None
+        self.last_action: np.ndarray | None = None
         n = len(embodiment.joint_names)
         self._state = self.DeclareVectorInputPort("state", plant.num_multibody_states())
         standing = np.r_[embodiment.standing_pose, np.zeros(n), np.zeros(n)]
         self.DeclareDiscreteState(standing)
-        self.DeclarePeriodicDiscreteUpdateEvent(control_period, 0.0, self._Update)
+        # Once at the start (before the plant's first step), then every period after it.
         self.DeclareInitializationDiscreteUpdateEvent(self._Update)
+        self.DeclarePeriodicDiscreteUpdateEvent(control_period, control_period, self._Update)
         self.DeclareVectorOutputPort("desired_state", 2 * n, self._CalcDesiredState, {self.xd_ticket()})
         self.DeclareVectorOutputPort("torques", n, self._CalcTorques, {self.xd_ticket()})
 
@@ -144,7 +149,7 @@ class WholeBodyController(LeafSystem):
         output.SetFromVector(context.get_discrete_state_vector().value()[2 * n :])
 
     def _Update(self, context: Context, discrete_state: DiscreteValues) -> None:
-        action = self.act(self._state.Eval(context), context.get_time())
+        action = self.act(self._state.Eval(context), self.start_time + context.get_time())
         targets = self._scaling.to_targets(action)
         discrete_state.set_value(np.r_[targets, np.zeros_like(targets), self.last.torques])
 
@@ -164,7 +169,8 @@ class WholeBodyController(LeafSystem):
         q, v = x[self._q], x[self._v]
         predicted = v + h * solution.accelerations[self._actuated_v]
         targets = q + h * predicted + (solution.torques + emb.kd * predicted) / emb.kp
-        return np.clip(self._scaling.to_action(targets), -1.0, 1.0)
+        self.last_action = np.clip(self._scaling.to_action(targets), -1.0, 1.0)
+        return self.last_action
 
     def reset(self) -> None:
         """Forget what the controller carried from step to step (the QP's warm
@@ -296,12 +302,13 @@ def AddWholeBodyController(
     control_period: float,
     loop: bool = True,
     gains: TrackingGains | None = None,
+    start_time: float = 0.0,
 ) -> WholeBodyController:
     """Add a `WholeBodyController` named `whole_body_controller` tracking
-    `clip`, its state input wired to the robot `model` of `plant`; connect
-    its `desired_state` to the plant's PD (`AddPdControl`)."""
-    controller = builder.AddNamedSystem(
-        "whole_body_controller", WholeBodyController(embodiment, clip, control_period, loop, gains)
-    )
+    `clip` (from its time `start_time` at time 0), its state input wired to
+    the robot `model` of `plant`; connect its `desired_state` to the
+    plant's PD (`AddPdControl`)."""
+    controller = WholeBodyController(embodiment, clip, control_period, loop, gains, start_time)
+    builder.AddNamedSystem("whole_body_controller", controller)
     builder.Connect(plant.get_state_output_port(model), controller.GetInputPort("state"))
     return controller
