@@ -83,7 +83,26 @@ class ClipPlan:
             shift = clip.root_position[-1] - turn @ clip.root_position[0]
             self._step = Planar(turn, np.array([shift[0], shift[1], 0.0]))
         self.contacts = {name: clip.contact(name).astype(bool) for name in clip.contact_names}
+        self._feet = {
+            f"{side}_foot": plant.GetBodyByName(embodiment.key_bodies[f"{side}_foot"], model)
+            for side in ("left", "right")
+            if f"{side}_foot" in embodiment.key_bodies
+        }
+        self._reach = self._ankle_reach(plant, context)
         self._plan_com(context)
+
+    def _ankle_reach(self, plant: MultibodyPlant, context) -> np.ndarray:
+        """How far (m, forward and sideways in the foot's frame) the centre of
+        pressure can lie from a lone stance foot's ankle with the robot's
+        weight on it: its ankle's pitch and roll torque limits over the weight
+        (a foot without a roll joint holds the sideways pressure through the
+        leg: no limit here)."""
+        emb = self.embodiment
+        weight = plant.CalcTotalMass(context, [self.model]) * GRAVITY
+        limit = dict(zip(emb.joint_names, emb.effort_limits))
+        pitch = min(limit.get(f"{side}_ankle_y", np.inf) for side in ("left", "right"))
+        roll = min(limit.get(f"{side}_ankle_x", np.inf) for side in ("left", "right"))
+        return np.array([pitch / weight, roll / weight])
 
     # --- the clip's state ------------------------------------------------------
 
@@ -131,13 +150,16 @@ class ClipPlan:
         plan's preview never sees an end), or the clip and a still stand."""
         clip, plant, fps = self.clip, self.plant, self.clip.fps
         passes = 3 if self.loop else 1
-        times, com = [], []
+        times, com, stance = [], [], []
         for index in range(passes):
             for frame in range(clip.num_frames - (1 if index < passes - 1 else 0)):
                 time = index * self.period + frame / fps
                 self.set_reference(context, time)
                 times.append(time)
                 com.append(plant.CalcCenterOfMassPositionInWorld(context, [self.model]))
+                planted = [name for name, down in self.planted(time).items() if down]
+                foot = self._feet.get(planted[0]) if len(planted) == 1 else None
+                stance.append(None if foot is None else plant.EvalBodyPoseInWorld(context, foot))
         times, com = np.array(times), np.array(com)
         if not self.loop:
             extra = times[-1] + np.arange(1, int(HOLD_AFTER * fps) + 1) / fps
@@ -147,6 +169,11 @@ class ClipPlan:
         self.com_times, self.com, self.com_velocity, self.com_acceleration = times, com, velocity, acceleration
         self.height = float(np.mean(com[:, 2]))
         self.zmp = com[:, :2] - com[:, 2:3] / (GRAVITY + acceleration[:, 2:3]) * acceleration[:, :2]
+        for frame, pose in enumerate(stance):  # on one foot: where its ankle's torques can hold the pressure
+            if pose is not None:
+                local = pose.inverse().multiply(np.r_[self.zmp[frame], 0.0])
+                local[:2] = np.clip(local[:2], -self._reach, self._reach)
+                self.zmp[frame] = pose.multiply(local)[:2]
         self.planner = ZmpPlanner()
         start = np.r_[com[0, :2], velocity[0, :2]]
         zmp = PiecewisePolynomial.FirstOrderHold(times, self.zmp.T)

@@ -49,6 +49,7 @@ class TrackingGains:
 
 
 POSITION_SHARE = 1.0
+CONTROL_LEAD = 1e-6  # s: how long before the plant's step the controller acts (`WholeBodyController`)
 FOOTING_EASING = 0.6  # s: the time constant over which the tracked clip moves to where the feet stand
 
 
@@ -134,9 +135,11 @@ class WholeBodyController(LeafSystem):
         self._state = self.DeclareVectorInputPort("state", plant.num_multibody_states())
         standing = np.r_[embodiment.standing_pose, np.zeros(n), np.zeros(n)]
         self.DeclareDiscreteState(standing)
-        # Once at the start (before the plant's first step), then every period after it.
+        # Once at the start (before the plant's first step), then every period after it, a moment before the
+        # plant's step at that time: a discrete plant's state already holds where its last step took it, and
+        # events at one time all read the state before them, so acting with the plant would act a period late.
         self.DeclareInitializationDiscreteUpdateEvent(self._Update)
-        self.DeclarePeriodicDiscreteUpdateEvent(control_period, control_period, self._Update)
+        self.DeclarePeriodicDiscreteUpdateEvent(control_period, control_period - CONTROL_LEAD, self._Update)
         self.DeclareVectorOutputPort("desired_state", 2 * n, self._CalcDesiredState, {self.xd_ticket()})
         self.DeclareVectorOutputPort("torques", n, self._CalcTorques, {self.xd_ticket()})
 
@@ -149,7 +152,9 @@ class WholeBodyController(LeafSystem):
         output.SetFromVector(context.get_discrete_state_vector().value()[2 * n :])
 
     def _Update(self, context: Context, discrete_state: DiscreteValues) -> None:
-        action = self.act(self._state.Eval(context), self.start_time + context.get_time())
+        now = context.get_time()
+        time = now if now == 0.0 else now + CONTROL_LEAD
+        action = self.act(self._state.Eval(context), self.start_time + time)
         targets = self._scaling.to_targets(action)
         discrete_state.set_value(np.r_[targets, np.zeros_like(targets), self.last.torques])
 
