@@ -349,7 +349,10 @@ def run_scenario(scenario: Scenario, duration: float | None = None, meshcat=None
     `min_pelvis_height`, `max_torque_ratio` (largest |torque| over its
     effort limit), `checksum` (`state_checksum` of the final state) and,
     tracking a reference, `tracking_rms` (rad, joint positions against the
-    reference, sampled every 50 ms); with `state`, the final `positions`
+    reference, sampled every 50 ms), `root_travel_m` (the pelvis'
+    horizontal displacement over the run) and, under the whole-body
+    controller, `reference_travel_m` (its clip's over the same time,
+    looping with its root motion); with `state`, the final `positions`
     and `velocities`."""
     sim = build_simulation(scenario, meshcat=meshcat)
     emb, plant, context = sim.embodiment, sim.plant, sim.plant_context()
@@ -357,6 +360,8 @@ def run_scenario(scenario: Scenario, duration: float | None = None, meshcat=None
     floating = fall.can_fall
     tracking = sim.diagram.HasOutputPort("reference_joint_positions")
     end = duration if duration is not None else scenario.duration
+    pelvis = plant.GetBodyByName(emb.key_bodies["pelvis"], sim.model)
+    start_position = plant.EvalBodyPoseInWorld(context, pelvis).translation().copy()
     fell, lowest, torque_ratio, wall, errors = False, np.inf, 0.0, 0.0, []
     if meshcat is not None:
         meshcat.StartRecording(set_visualizations_while_recording=False)
@@ -391,6 +396,10 @@ def run_scenario(scenario: Scenario, duration: float | None = None, meshcat=None
         figures["velocities"] = plant.GetVelocities(context).tolist()
     if errors:
         figures["tracking_rms"] = round(float(np.sqrt(np.mean(np.square(errors)))), 4)
+    moved = plant.EvalBodyPoseInWorld(context, pelvis).translation() - start_position
+    figures["root_travel_m"] = round(float(np.linalg.norm(moved[:2])), 4)
+    if "whole_body_controller" in sim.systems:
+        figures["reference_travel_m"] = round(sim.systems["whole_body_controller"].reference_travel(end), 4)
     return figures
 
 

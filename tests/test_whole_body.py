@@ -159,3 +159,22 @@ def test_the_teacher_action_is_the_action_the_controller_takes_in_that_state():
         assert not terminated
     assert np.abs(expected - inner.standing_action()).max() > 0.05  # it is walking, not standing
     env.close()
+
+
+def test_simulate_reports_the_root_travel_against_the_clips():
+    """`run_scenario` (what `simulate --json` prints) gives the pelvis' travel
+    and, under the whole-body controller, the clip's over the same time."""
+    from hotu_drake.diagrams import run_scenario
+
+    scenario = Scenario(
+        embodiment="udh",
+        driver=WholeBodyTracking(motion="walk", loop=True),
+        initial=InitialCondition(reference_time=0.0),
+        control_rate=60.0,
+    )
+    figures = run_scenario(scenario, duration=2.0)
+    assert not figures["fell"]
+    assert figures["reference_travel_m"] > 0.5  # the clip walks off
+    assert abs(figures["root_travel_m"] - figures["reference_travel_m"]) < 0.15 * figures["reference_travel_m"]
+    standing = run_scenario(Scenario(embodiment="h1"), duration=0.5)
+    assert standing["root_travel_m"] < 0.02 and "reference_travel_m" not in standing

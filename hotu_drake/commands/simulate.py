@@ -13,7 +13,10 @@ the same on one machine run after run; another machine's floating-point
 last bits may change it, so regression tests pin the state itself and
 compare it with a tolerance). A scenario with a
 reference motion also gets `tracking_rms` (rad, joint positions against the
-reference, sampled every 50 ms).
+reference, sampled every 50 ms); every run `root_travel_m` (the pelvis'
+horizontal displacement), and one under the whole-body controller
+(`!WholeBodyTracking`) `reference_travel_m` (its clip's, looping with its
+root motion, over the same time).
 """
 
 import json

@@ -177,6 +177,17 @@ class WholeBodyController(LeafSystem):
         self.last_action = np.clip(self._scaling.to_action(targets), -1.0, 1.0)
         return self.last_action
 
+    def reference_travel(self, duration: float) -> float:
+        """How far (m, horizontally) the clip's pelvis moves over `duration` s
+        from the controller's start (a loop carrying its root motion on)."""
+        plant, scratch = self._plant, self._plant.CreateDefaultContext()
+        pelvis = plant.GetBodyByName(self.embodiment.key_bodies["pelvis"])
+        ends = []
+        for time in (self.start_time, self.start_time + duration):
+            self.plan.set_reference(scratch, time)
+            ends.append(plant.EvalBodyPoseInWorld(scratch, pelvis).translation())
+        return float(np.linalg.norm((ends[1] - ends[0])[:2]))
+
     def reset(self) -> None:
         """Forget what the controller carried from step to step (the QP's warm
         start, where the feet stood): a new episode."""
