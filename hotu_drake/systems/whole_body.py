@@ -35,11 +35,11 @@ from hotu_drake.rotations import rotation_log
 class TrackingGains:
     """Task weights and PD gains (stiffness; damping is critical unless given) of the controller's tasks."""
 
-    com_weight: float = 100.0
+    com_weight: float = 1000.0
     com_height_stiffness: float = 50.0
     body_weight: float = 10.0  # pelvis and torso orientation
     body_stiffness: float = 100.0
-    swing_weight: float = 100.0
+    swing_weight: float = 70.0
     swing_stiffness: float = 400.0
     # A swing foot lands this share of the capture point's error (the CoM's error plus its velocity's over
     # the pendulum's frequency) away from the clip's footstep: the step that brings a pushed CoM back.
