@@ -10,7 +10,9 @@ the pages light) and the clips under `DIR/clips/`. Last, it runs the
 cube-perturbation scenario of each legged robot and writes its Meshcat
 replay `DIR/perturb_<robot>.html`; and runs the learned policies shipped in
 `systems/policies/` (the `learned_<name>` scenarios), writing
-`DIR/learned_<name>.html`.
+`DIR/learned_<name>.html`; and the robots the whole-body controller keeps
+walking (the `whole_body_walk_<robot>` scenarios: 10 s of the library walk,
+performed in the simulator), writing `DIR/whole_body_walk_<robot>.html`.
 """
 
 import sys
@@ -58,6 +60,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wrote {replay}: {motion} retargeted onto {', '.join(c.embodiment for c in clips)}")
     write_perturbation_replays(out)
     write_learned_replays(out)
+    write_scenario_replays(out, "whole_body_walk_", "the library walk under the whole-body controller")
     return 0
 
 
@@ -86,6 +89,12 @@ def write_perturbation_replays(out: Path) -> list[Path]:
 def write_learned_replays(out: Path) -> list[Path]:
     """Run each shipped `learned_<name>` scenario (a policy checkpoint shipped
     in systems/policies/), recording Meshcat into `DIR/learned_<name>.html`."""
+    return write_scenario_replays(out, "learned_", "a learned policy")
+
+
+def write_scenario_replays(out: Path, prefix: str, what: str) -> list[Path]:
+    """Run each shipped scenario whose name starts with `prefix`, recording
+    Meshcat into `DIR/<name>.html`, and say whether `what` stayed up."""
     from pydrake.geometry import StartMeshcat
 
     from hotu_drake.diagrams import run_scenario as run
@@ -94,12 +103,12 @@ def write_learned_replays(out: Path) -> list[Path]:
 
     meshcat = StartMeshcat()
     written = []
-    for name in sorted(n for n in shipped_scenarios() if n.startswith("learned_")):
+    for name in sorted(n for n in shipped_scenarios() if n.startswith(prefix)):
         meshcat.Delete()
         figures = run(load_scenario(name), meshcat=meshcat)
         written.append(write_text_atomic(out / f"{name}.html", meshcat.StaticHtml()))
         outcome = "fell" if figures["fell"] else "stayed up"
-        print(f"wrote {written[-1]}: a learned policy ({name}), which {outcome}")
+        print(f"wrote {written[-1]}: {what} ({name}), which {outcome}")
     return written
 
 
