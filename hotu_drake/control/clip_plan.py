@@ -12,6 +12,7 @@ brought back along the plan, not merely pulled to where the clip is.
 from __future__ import annotations
 
 import numpy as np
+from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.math import SpatialVelocity
 from pydrake.multibody.plant import MultibodyPlant
@@ -22,7 +23,6 @@ from hotu_drake.embodiment import Embodiment
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.playback import ClipPlayback
 from hotu_drake.motion.synthesis import smooth
-from hotu_drake.plant import set_robot_state
 from hotu_drake.rotations import heading_yaw, quat_to_matrix, rot_z
 
 GRAVITY = 9.81
@@ -75,6 +75,11 @@ class ClipPlan:
         self.clip, self.loop, self.embodiment = clip, loop, embodiment
         self.plant, self.model = plant, model
         self.playback = ClipPlayback(clip, loop=False)
+        # Where each of the clip's joints sits in the plant's positions and velocities, and the floating root.
+        joints = [plant.GetJointByName(name, model) for name in clip.joint_names]
+        self._joint_positions = np.array([joint.position_start() for joint in joints])
+        self._joint_velocities = np.array([joint.velocity_start() for joint in joints])
+        self._root = plant.GetBodyByName(embodiment.spec.root.name, model)
         self.period = (clip.num_frames - 1) / clip.fps
         self._step = Planar()  # what one pass of a loop does to the root: turn, then shift
         if loop and embodiment.floating_base:
@@ -123,18 +128,19 @@ class ClipPlan:
     def set_reference(self, context, time: float) -> None:
         """Set `context` (of the plan's plant) to the clip's state at `time`."""
         index, clip_time = self.pass_at(time)
-        set_robot_state(self.plant, context, self.model, self.embodiment, self.playback, clip_time)
-        if index == 0 or not self.embodiment.floating_base:
+        q, v = self.playback.joints_at(clip_time)
+        positions, velocities = self.plant.GetPositions(context), self.plant.GetVelocities(context)
+        positions[self._joint_positions], velocities[self._joint_velocities] = q, v
+        self.plant.SetPositions(context, positions)
+        self.plant.SetVelocities(context, velocities)
+        if not self.embodiment.floating_base:
             return
+        quaternion, position, omega, linear = self.playback.root_at(clip_time)
         placement = self.placement(index)
-        root = self.plant.GetBodyByName(self.embodiment.spec.root.name, self.model)
-        pose = self.plant.GetFreeBodyPose(context, root)
-        velocity = self.plant.EvalBodySpatialVelocityInWorld(context, root)
         turn = placement.rotation
-        self.plant.SetFreeBodyPose(context, root, RigidTransform(RotationMatrix(turn), placement.shift) @ pose)
-        self.plant.SetFreeBodySpatialVelocity(
-            context, root, SpatialVelocity(turn @ velocity.rotational(), turn @ velocity.translational())
-        )
+        pose = RigidTransform(RotationMatrix(turn), placement.shift) @ RigidTransform(Quaternion(quaternion), position)
+        self.plant.SetFreeBodyPose(context, self._root, pose)
+        self.plant.SetFreeBodySpatialVelocity(context, self._root, SpatialVelocity(turn @ omega, turn @ linear))
 
     def planted(self, time: float) -> dict[str, bool]:
         """Per contact name (`left_foot`, `right_foot`), whether the clip has that foot down at `time`."""

@@ -28,7 +28,6 @@ from hotu_drake.embodiment.actions import ActionScaling
 from hotu_drake.embodiment.spec import SIDES
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.plant import actuated_state_indices
-from hotu_drake.rotations import rotation_log
 
 
 @dataclass
@@ -51,6 +50,12 @@ class TrackingGains:
 POSITION_SHARE = 1.0
 CONTROL_LEAD = 1e-6  # s: how long before the plant's step the controller acts (`WholeBodyController`)
 FOOTING_EASING = 0.6  # s: the time constant over which the tracked clip moves to where the feet stand
+
+
+def _rotation_vector(rotation) -> np.ndarray:
+    """The axis times the angle of a Drake `RotationMatrix`."""
+    turn = rotation.ToAngleAxis()
+    return turn.axis() * turn.angle()
 
 
 def _damping(stiffness: float) -> float:
@@ -293,7 +298,7 @@ class WholeBodyController(LeafSystem):
         goal_velocity = plant.EvalBodySpatialVelocityInWorld(reference, body)
         goal_acceleration = self._goal_accelerations()[int(body.index())]
         damping = _damping(stiffness)
-        turn = rotation_log(goal.rotation().matrix() @ pose.rotation().matrix().T)
+        turn = _rotation_vector(goal.rotation() @ pose.rotation().inverse())
         angular = (
             goal_acceleration.rotational()
             + stiffness * turn
