@@ -193,3 +193,35 @@ def test_walker_walks_the_looped_library_walk_for_ten_seconds():
     assert not figures["fell"]
     assert figures["reference_travel_m"] > 3.0
     assert abs(figures["root_travel_m"] / figures["reference_travel_m"] - 1.0) < 0.15, figures
+
+
+def test_retarget_physics_performs_each_legged_robots_clip(tmp_path):
+    """`retarget --physics` writes each legged robot's clip as performed in the
+    simulator (its states, the controller's actions, the torques, the foot
+    forces) beside the kinematic one, and its figures in the report; CURI is
+    said to be skipped."""
+    import json
+    import subprocess
+    import sys
+
+    from hotu_drake.motion.clip import MotionClip
+    from hotu_drake.motion.library import generate
+
+    source = generate("squat").save(tmp_path / "squat.npz")
+    out, report = tmp_path / "out", tmp_path / "report.json"
+    command = [sys.executable, "-m", "hotu_drake.retarget", str(source), "--robot", "all", "--hands", "none"]
+    result = subprocess.run(
+        [*command, "--out", str(out), "--physics", "--report", str(report)], capture_output=True, text=True, timeout=600
+    )
+    assert result.returncode == 0, result.stderr
+    figures = json.loads(report.read_text())["clips"]["squat"]
+    kinematic = MotionClip.load(out / "squat_h1.npz")
+    performed = MotionClip.load(out / "squat_h1_physical.npz")
+    assert performed.num_frames == kinematic.num_frames and performed.joint_names == kinematic.joint_names
+    extra = np.load(out / "squat_h1_physical.npz")
+    assert extra["actions"].shape == (performed.num_frames, len(performed.joint_names))
+    assert extra["foot_forces"].shape == (performed.num_frames, 2, 3)
+    h1 = figures["h1"]["physics"]
+    assert not h1["fell"] and h1["joint_rms_rad"] < 0.1 and h1["key_body_rms_m"] < 0.05, h1
+    assert performed.contacts.all(axis=1).mean() > 0.9  # the floor carries both feet through a squat
+    assert "skipped" in figures["curi"]["physics"] and not (out / "squat_curi_physical.npz").exists()

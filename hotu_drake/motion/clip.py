@@ -251,8 +251,10 @@ class MotionClip:
             contacts=None if self.contacts is None else self.contacts[s],
         )
 
-    def save(self, path: str | Path) -> Path:
-        """Write the clip as `.npz`, atomically (no partial file on failure)."""
+    def save(self, path: str | Path, extra: dict[str, np.ndarray] | None = None) -> Path:
+        """Write the clip as `.npz`, atomically (no partial file on failure);
+        `extra` arrays (per frame, say a performance's actions) are written
+        beside the clip's own, which `load` leaves aside."""
         path = Path(path)
         arrays = {
             "format_version": np.array(FORMAT_VERSION),
@@ -278,8 +280,11 @@ class MotionClip:
             if self.contacts is None
             else np.asarray(self.contacts, dtype=bool),
         }
+        clash = set(extra or {}) & set(arrays)
+        if clash:
+            raise ValueError(f"extra arrays may not be named as the clip's own: {', '.join(sorted(clash))}")
         with atomic_output(path, suffix=".npz") as tmp:
-            np.savez(tmp, **arrays)
+            np.savez(tmp, **arrays, **(extra or {}))
         return path
 
     @staticmethod

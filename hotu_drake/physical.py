@@ -1,0 +1,189 @@
+"""Physical clips: a kinematic clip performed in the simulator by the whole-body controller.
+
+(`retarget --physics` calls it; it composes a scenario's diagram, so it
+stands beside `diagrams.py`, above the controller's package `control/`.)
+
+`perform` runs the controller (`!WholeBodyTracking`) on a clip of an
+embodiment and records, at the clip's own frames, what the simulated robot
+did: its states and key bodies (a `MotionClip` whose contacts are the feet
+the floor actually carried), the controller's actions, the torques the
+plant applied and the floor's force on each foot; and a report next to the
+clip: whether and when it fell, its travel against the clip's, joint and
+key-body RMS against the clip, the share of frames with a joint at its
+torque limit, the least margin of its centre of pressure inside the
+support of its loaded feet, and the wall time.
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from hotu_drake.motion.clip import MotionClip
+from hotu_drake.motion.playback import ClipPlayback
+from hotu_drake.rotations import matrix_to_quat
+
+LOADED = 0.05  # a foot carries the robot when the floor pushes it with this share of its weight or more
+SATURATED = 0.99  # a joint is at its torque limit at this share of it
+
+
+@dataclass
+class Performance:
+    """A clip as the simulated robot performed it (`clip`), per frame the
+    controller's `actions`, the applied `torques` (actuator order) and the
+    floor's force on each foot (`foot_forces`, (T, feet, 3), world), and
+    the `report`."""
+
+    clip: MotionClip
+    actions: np.ndarray
+    torques: np.ndarray
+    foot_forces: np.ndarray
+    report: dict
+
+    def save(self, path: str | Path) -> Path:
+        """Write the clip as `.npz` with the actions, torques and foot forces beside its own arrays."""
+        extra = {"actions": self.actions, "torques": self.torques, "foot_forces": self.foot_forces}
+        return self.clip.save(path, extra)
+
+
+def perform(clip: MotionClip, hands: str = "none", control_rate: float = 60.0, loop: bool = False) -> Performance:
+    """Perform `clip` (of a legged embodiment, starting on its first frame)
+    under the whole-body controller at `control_rate` (the plant's step too),
+    for the clip's duration (once, or looping with its root motion)."""
+    from hotu_drake.diagrams import build_simulation
+    from hotu_drake.scenario import InitialCondition, Scenario, WholeBodyTracking
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = clip.save(Path(folder) / f"{clip.embodiment}.npz")
+        scenario = Scenario(
+            embodiment=clip.embodiment,
+            hands=hands,
+            driver=WholeBodyTracking(motion=str(path), loop=loop),
+            initial=InitialCondition(reference_time=0.0),
+            control_rate=control_rate,
+        )
+        scenario.plant_config.time_step = 1.0 / control_rate
+        start = time.perf_counter()
+        sim = build_simulation(scenario)
+    plant, model, context, emb = sim.plant, sim.model, sim.plant_context(), sim.embodiment
+    controller = sim.systems["whole_body_controller"]
+    fall = sim.fall_check()
+    weight = plant.CalcTotalMass(context, [model]) * 9.81
+    root = plant.GetBodyByName(emb.spec.root.name, model)
+    keys = list(dict.fromkeys(emb.key_bodies.values()))
+    key_bodies = [plant.GetBodyByName(name, model) for name in keys]
+    sides = [side for side in ("left", "right") if f"{side}_foot" in emb.key_bodies]
+    feet = {int(plant.GetBodyByName(emb.key_bodies[f"{side}_foot"], model).index()): i for i, side in enumerate(sides)}
+    soles = controller._soles
+    joints = [plant.GetJointByName(name, model) for name in emb.joint_names]
+    frames = clip.num_frames
+    record = {
+        name: [] for name in ("q", "root_p", "root_q", "keys", "actions", "torques", "forces", "pressure", "corners")
+    }
+    sole_bodies = [plant.GetBodyByName(sole.body.name(), model) for sole in soles.values()]
+    fell_at = None
+    for frame in range(frames):
+        sim.simulator.AdvanceTo(frame / clip.fps)
+        record["q"].append([plant.GetPositions(context)[joint.position_start()] for joint in joints])
+        pose = plant.EvalBodyPoseInWorld(context, root)
+        record["root_p"].append(pose.translation())
+        record["root_q"].append(matrix_to_quat(pose.rotation().matrix()))
+        record["keys"].append([plant.EvalBodyPoseInWorld(context, body).translation() for body in key_bodies])
+        record["actions"].append(controller.last_action)
+        record["torques"].append(plant.get_net_actuation_output_port(model).Eval(context))
+        forces, pressure = _floor_forces(plant, context, feet, len(sides))
+        record["forces"].append(forces)
+        record["pressure"].append(pressure)
+        record["corners"].append(
+            np.vstack(
+                [
+                    plant.EvalBodyPoseInWorld(context, body).multiply(sole.corners.T).T[:, :2]
+                    for body, sole in zip(sole_bodies, soles.values())
+                ]
+            )
+        )
+        if fall(context):
+            fell_at = frame / clip.fps
+            break
+    wall = time.perf_counter() - start
+    done = len(record["q"])
+    forces = np.array(record["forces"])
+    performed = MotionClip.from_positions(
+        emb.name,
+        f"{clip.source} (performed)",
+        clip.fps,
+        emb.joint_names,
+        np.array(record["q"]),
+        np.array(record["root_p"]),
+        np.array(record["root_q"]),
+        keys,
+        np.array(record["keys"]),
+        part_index=emb.parts,
+        contact_names=[f"{side}_foot" for side in sides],
+        contacts=forces[:, :, 2] >= LOADED * weight,
+    )
+    loaded = forces[:, :, 2] >= LOADED * weight
+    down = np.concatenate(
+        [np.repeat(loaded[:, [i]], len(sole.corners), axis=1) for i, sole in enumerate(soles.values())], 1
+    )
+    report = _report(clip, performed, emb, np.array(record["torques"]))
+    report["least_pressure_margin_m"] = _least_margin(np.array(record["corners"]), down, np.array(record["pressure"]))
+    report |= {"fell": fell_at is not None, "fell_at_s": fell_at, "frames": done, "wall_time_s": round(wall, 2)}
+    return Performance(performed, np.array(record["actions"]), np.array(record["torques"]), forces, report)
+
+
+def _floor_forces(plant, context, feet: dict[int, int], count: int) -> tuple[np.ndarray, np.ndarray]:
+    """The floor's force on each foot (count, 3) and the centre of pressure
+    of the feet's contacts (2,; NaN with no foot loaded)."""
+    results = plant.get_contact_results_output_port().Eval(context)
+    forces = np.zeros((count, 3))
+    moment, normal = np.zeros(2), 0.0
+    for i in range(results.num_point_pair_contacts()):
+        info = results.point_pair_contact_info(i)
+        a, b = int(info.bodyA_index()), int(info.bodyB_index())
+        foot = feet.get(b, feet.get(a))
+        if foot is None:
+            continue
+        force = info.contact_force() if b in feet else -info.contact_force()  # on the foot
+        forces[foot] += force
+        moment += force[2] * info.contact_point()[:2]
+        normal += force[2]
+    return forces, moment / normal if normal > 1e-9 else np.full(2, np.nan)
+
+
+def _report(clip: MotionClip, performed: MotionClip, emb, torques: np.ndarray) -> dict:
+    """The figures of a performance against the clip it performed."""
+    done = performed.num_frames
+    reference = ClipPlayback(clip, loop=False)
+    q_reference = np.array([reference.joints_at(t / clip.fps)[0] for t in range(done)])
+    joint_rms = float(np.sqrt(np.mean(np.square(performed.joint_positions - q_reference))))
+    names = list(performed.key_body_names)
+    clip_keys = [clip.key_body_names.index(name) for name in names if name in clip.key_body_names]
+    ours = [names.index(clip.key_body_names[i]) for i in clip_keys]
+    key_error = performed.key_body_positions[:, ours] - clip.key_body_positions[:done, clip_keys]
+    key_rms = float(np.sqrt(np.mean(np.sum(np.square(key_error), axis=-1)))) if clip_keys else None
+    saturated = np.abs(torques) >= SATURATED * emb.effort_limits
+    travel = np.linalg.norm(performed.root_position[-1, :2] - performed.root_position[0, :2])
+    reference_travel = np.linalg.norm(clip.root_position[done - 1, :2] - clip.root_position[0, :2])
+    return {
+        "root_travel_m": round(float(travel), 4),
+        "reference_travel_m": round(float(reference_travel), 4),
+        "joint_rms_rad": round(joint_rms, 4),
+        "key_body_rms_m": None if key_rms is None else round(key_rms, 4),
+        "torque_saturation_share": round(float(np.mean(saturated.any(axis=1))), 4),
+    }
+
+
+def _least_margin(corners: np.ndarray, down: np.ndarray, pressure: np.ndarray) -> float | None:
+    """The least distance (m) over the frames of the centre of pressure
+    (T, 2) inside the hull of the loaded feet's sole corners (`corners` (T,
+    K, 2) in the world, `down` (T, K)); negative: outside."""
+    from hotu_drake.retarget.balance import Support
+
+    margins = Support(corners, down, 0.0).margin(pressure)
+    finite = margins[np.isfinite(margins)]
+    return round(float(finite.min()), 4) if finite.size else None
