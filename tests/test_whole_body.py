@@ -225,3 +225,25 @@ def test_retarget_physics_performs_each_legged_robots_clip(tmp_path):
     assert not h1["fell"] and h1["joint_rms_rad"] < 0.1 and h1["key_body_rms_m"] < 0.05, h1
     assert performed.contacts.all(axis=1).mean() > 0.9  # the floor carries both feet through a squat
     assert "skipped" in figures["curi"]["physics"] and not (out / "squat_curi_physical.npz").exists()
+
+
+def test_bench_teacher_reports_the_walk_and_the_label_cost():
+    """`bench teacher` (its figures are BENCHMARKS.md's, not a test's): the
+    walk's real-time factor and the controller's and QP's shares, the label
+    query's cost; a robot without a shipped walk is refused in one line."""
+    import json
+    import subprocess
+    import sys
+
+    command = [sys.executable, "-m", "hotu_drake.bench", "teacher"]
+    result = subprocess.run(
+        [*command, "--seconds", "0.5", "--queries", "3"], capture_output=True, text=True, timeout=300
+    )
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    walking, labels = report["walking"], report["labels"]
+    assert walking["simulated_s"] == 0.5 and not walking["fell"]
+    assert 0.0 < walking["qp_share"] < walking["controller_share"] < 1.0
+    assert labels["queries"] == 3 and labels["ms_per_query_median"] > 0.0
+    refused = subprocess.run([*command, "--robot", "curi"], capture_output=True, text=True, timeout=120)
+    assert refused.returncode != 0 and "whole_body_walk_curi" in refused.stderr

@@ -13,6 +13,7 @@ python -m hotu_drake.bench train    [--robot NAME] [--motions M ...] [--workers 
                                     [--algo dail|amp|ase|pmp]
 python -m hotu_drake.bench readers  [--input FILE ...] [--repeats N]
 python -m hotu_drake.bench clips    [--motions M ...] [--input FILE ...] [--robots NAME ...] [--markdown]
+python -m hotu_drake.bench teacher  [--robot NAME] [--seconds S] [--queries N]
 """
 
 import json
@@ -329,6 +330,24 @@ def _clips(args) -> int:
     return 0
 
 
+def _teacher(args) -> int:
+    from hotu_drake.bench.teacher import label_cost, walking_cost
+    from hotu_drake.scenario import shipped_scenarios
+
+    if f"whole_body_walk_{args.robot}" not in shipped_scenarios():
+        walking = sorted(n[len("whole_body_walk_") :] for n in shipped_scenarios() if n.startswith("whole_body_walk_"))
+        raise InputError(f"--robot: no whole_body_walk_{args.robot} scenario (shipped: {', '.join(walking)})")
+    check_number(args.seconds, "--seconds", low=0.1, high=600.0, unit="s")
+    check_number(args.queries, "--queries", low=1, high=10000, integer=True)
+    pin_to_one_core()
+    walking = walking_cost(args.robot, args.seconds)
+    print(json.dumps(walking), file=sys.stderr, flush=True)
+    labels = label_cost(args.robot, args.queries)
+    print(json.dumps(labels), file=sys.stderr, flush=True)
+    print(json.dumps({"benchmark": "teacher", "machine": machine(), "walking": walking, "labels": labels}, indent=2))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = ArgumentParser(prog="python -m hotu_drake.bench", description="Benchmarks that print JSON.")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -397,7 +416,13 @@ def main(argv: list[str] | None = None) -> int:
     clips.add_argument("--input", nargs="*", default=[], help="motion files (BVH, C3D, .npz) to retarget too")
     clips.add_argument("--robots", nargs="+", default=list(LEGGED), help="legged embodiments (default: all of them)")
     clips.add_argument("--markdown", action="store_true", help="also print a Markdown table on stderr")
+    teacher = sub.add_parser("teacher", help="the whole-body controller walking a robot, and one label query's cost")
+    teacher.add_argument("--robot", default="h1", help="a robot with a shipped whole_body_walk_<robot> scenario")
+    teacher.add_argument("--seconds", type=float, default=10.0, help="simulated seconds of walking")
+    teacher.add_argument("--queries", type=int, default=100, help="teacher_action queries timed in Imitation-v0")
     args = parser.parse_args(argv)
+    if args.command == "teacher":
+        return _teacher(args)
     if args.command == "clips":
         return _clips(args)
     if args.command == "readers":

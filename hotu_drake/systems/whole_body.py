@@ -15,6 +15,7 @@ its actions are actions a policy could output: a teacher's.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from time import perf_counter
 
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
@@ -135,6 +136,7 @@ class WholeBodyController(LeafSystem):
         self._bodies = [plant.GetBodyByName(embodiment.key_bodies[name]) for name in ("pelvis", "torso")]
         self._bodies = list({body.index(): body for body in self._bodies}.values())
         self.last: Solution | None = None
+        self.timings = {"act": 0.0, "qp": 0.0, "calls": 0}  # wall seconds in `act` and in its QP's solve, and the calls
         self.last_action: np.ndarray | None = None
         n = len(embodiment.joint_names)
         self._state = self.DeclareVectorInputPort("state", plant.num_multibody_states())
@@ -171,15 +173,21 @@ class WholeBodyController(LeafSystem):
         the QP predicts a step ahead (the PD being implicit over the step h,
         this gives u when the robot moves as predicted). The QP's solution
         is kept as `last`."""
+        start = perf_counter()
         plant, emb, h = self._plant, self.embodiment, self.period
         plant.SetPositionsAndVelocities(self._context, x)
         self.plan.set_reference(self._reference, time)
         self._reference_accelerations = self._accelerations_at(time)
-        self.last = solution = self.qp.solve(self._context, self.tasks(time), self.plan.planted(time))
+        tasks, planted = self.tasks(time), self.plan.planted(time)
+        solving = perf_counter()
+        self.last = solution = self.qp.solve(self._context, tasks, planted)
+        self.timings["qp"] += perf_counter() - solving
         q, v = x[self._q], x[self._v]
         predicted = v + h * solution.accelerations[self._actuated_v]
         targets = q + h * predicted + (solution.torques + emb.kd * predicted) / emb.kp
         self.last_action = np.clip(self._scaling.to_action(targets), -1.0, 1.0)
+        self.timings["act"] += perf_counter() - start
+        self.timings["calls"] += 1
         return self.last_action
 
     def reference_travel(self, duration: float) -> float:

@@ -1,0 +1,71 @@
+"""The whole-body controller as a teacher: what it costs.
+
+The real-time factor of a robot walking under the controller (QP and
+simulation together, one core), the controller's and its QP's share of
+that time, and the cost of one label query (`DiagramEnv.teacher_action`)
+in the environment a learner steps.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+
+def walking_cost(robot: str, seconds: float) -> dict:
+    """`robot`'s shipped `whole_body_walk_<robot>` for `seconds`: real-time
+    factor, the controller's and the QP's shares of the wall time, whether
+    it fell."""
+    from hotu_drake.diagrams import build_simulation
+    from hotu_drake.scenario import load_scenario
+
+    sim = build_simulation(load_scenario(f"whole_body_walk_{robot}"))
+    controller = sim.systems["whole_body_controller"]
+    controller.timings.update(act=0.0, qp=0.0, calls=0)
+    fall, context = sim.fall_check(), sim.plant_context()
+    start, fell, t = time.perf_counter(), False, 0.0
+    while t < seconds - 1e-9 and not fell:
+        t = min(seconds, t + 0.5)
+        sim.simulator.AdvanceTo(t)
+        fell = fall(context)
+    wall = time.perf_counter() - start
+    calls = max(controller.timings["calls"], 1)
+    return {
+        "robot": robot,
+        "simulated_s": round(t, 3),
+        "fell": bool(fell),
+        "realtime_factor": round(t / wall, 2),
+        "controller_share": round(controller.timings["act"] / wall, 3),
+        "qp_share": round(controller.timings["qp"] / wall, 3),
+        "controller_ms_per_step": round(1000 * controller.timings["act"] / calls, 3),
+        "qp_ms_per_step": round(1000 * controller.timings["qp"] / calls, 3),
+    }
+
+
+def label_cost(robot: str, steps: int) -> dict:
+    """Milliseconds per `teacher_action` query in Imitation-v0 (the walk,
+    from a reference start, stepped with the teacher's own actions)."""
+    import gymnasium as gym
+
+    import hotu_drake.envs  # noqa: F401 (registers the environments)
+
+    env = gym.make("hotu_drake/Imitation-v0", robot=robot, hands="none", motions=["walk"], teacher=True)
+    inner = env.unwrapped
+    _, info = env.reset(seed=0, options={"init": "reference", "clip": 0, "time": 0.0})
+    seconds, queries = [], 0
+    for _ in range(steps):
+        tick = time.perf_counter()
+        action = inner.teacher_action()
+        seconds.append(time.perf_counter() - tick)
+        queries += 1
+        _, _, terminated, truncated, info = env.step(action)
+        if terminated or truncated:
+            break
+    env.close()
+    return {
+        "robot": robot,
+        "queries": queries,
+        "ms_per_query_median": round(1000 * float(np.median(seconds)), 3),
+        "ms_per_query_mean": round(1000 * float(np.mean(seconds)), 3),
+    }
