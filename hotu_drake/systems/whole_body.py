@@ -50,6 +50,7 @@ class TrackingGains:
 
 POSITION_SHARE = 1.0
 CONTROL_LEAD = 1e-6  # s: how long before the plant's step the controller acts (`WholeBodyController`)
+TOUCHING = 0.01  # m: a sole with a corner this close to the floor is down
 FOOTING_EASING = 0.6  # s: the time constant over which the tracked clip moves to where the feet stand
 
 
@@ -178,7 +179,8 @@ class WholeBodyController(LeafSystem):
         plant.SetPositionsAndVelocities(self._context, x)
         self.plan.set_reference(self._reference, time)
         self._reference_accelerations = self._accelerations_at(time)
-        tasks, planted = self.tasks(time), self.plan.planted(time)
+        planted = self.planted(time)
+        tasks = self.tasks(time, planted)
         solving = perf_counter()
         self.last = solution = self.qp.solve(self._context, tasks, planted)
         self.timings["qp"] += perf_counter() - solving
@@ -218,14 +220,32 @@ class WholeBodyController(LeafSystem):
 
     # --- the tasks -----------------------------------------------------------------
 
-    def tasks(self, time: float) -> list[Task]:
-        """The tracking tasks at `time`, for the state set in the controller's context."""
+    def planted(self, time: float) -> dict[str, bool]:
+        """The soles the controller stands on at `time`: those the clip has
+        down that are down (a corner within `TOUCHING` of the floor). A foot
+        the clip has landed that is still in the air stays a swing foot,
+        drawn to its footstep on the floor; held still as planted it would
+        hover (the robots that fell at the end of the walk stood on one leg,
+        the other 3 cm up)."""
+        plant, context = self._plant, self._context
+        out = {}
+        for name, down in self.plan.planted(time).items():
+            sole = self._soles.get(name)
+            if down and sole is not None:
+                corners = plant.EvalBodyPoseInWorld(context, sole.body).multiply(sole.corners.T)
+                down = bool(corners[2].min() < TOUCHING)
+            out[name] = down
+        return out
+
+    def tasks(self, time: float, planted: dict[str, bool] | None = None) -> list[Task]:
+        """The tracking tasks at `time`, for the state set in the controller's
+        context, with the soles `planted` (by default `planted(time)`)."""
         plant, context, reference, gains = self._plant, self._context, self._reference, self.gains
         world = plant.world_frame()
         kv = JacobianWrtVariable.kV
         com = plant.CalcCenterOfMassPositionInWorld(context)
         com_velocity = plant.CalcCenterOfMassTranslationalVelocityInWorld(context)
-        planted = self.plan.planted(time)
+        planted = self.planted(time) if planted is None else planted
         shift = self._footing(planted)
         com_reference, com_reference_velocity, com_reference_acceleration = self.plan.com_reference(time)
         com_reference = com_reference + shift
