@@ -78,7 +78,7 @@ def perform(clip: MotionClip, hands: str = "none", control_rate: float = 60.0, l
     key_bodies = [plant.GetBodyByName(name, model) for name in keys]
     sides = [side for side in ("left", "right") if f"{side}_foot" in emb.key_bodies]
     feet = {int(plant.GetBodyByName(emb.key_bodies[f"{side}_foot"], model).index()): i for i, side in enumerate(sides)}
-    soles = controller._soles
+    soles = controller.soles
     joints = [plant.GetJointByName(name, model) for name in emb.joint_names]
     frames = clip.num_frames
     record = {

@@ -25,6 +25,8 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.solvers import MathematicalProgram, OsqpSolver, SolverOptions
 
+from hotu_drake.embodiment import Embodiment
+
 CONTACT_WEIGHT = 1e3  # a planted corner's acceleration, against the tasks' (order 1-100): soft, as the
 # torque limits are hard (with both hard, a clip that needs more torque than the robot has leaves no solution)
 FRICTION = 0.8  # a little under the floor's (1.0): the pyramid is inside the cone
@@ -49,6 +51,25 @@ class Sole:
 
     body: object  # a pydrake RigidBody
     corners: np.ndarray
+
+
+def sole_corners(embodiment: Embodiment, link: str) -> np.ndarray:
+    """The lowest points (K, 3) of a foot link's collision shapes, in the link's
+    frame: a sphere's bottom, a box's bottom corners, a capsule's ends' bottoms."""
+    points = []
+    for shape in embodiment.spec.link(link).collisions:
+        centre, rotation = np.asarray(shape.position, float), shape.rotation()
+        if shape.shape == "box":
+            half = np.asarray(shape.size, float) / 2.0
+            corners = np.array(np.meshgrid(*[[-h, h] for h in half])).reshape(3, -1).T
+            points += [centre + rotation @ corner for corner in corners]
+        elif shape.shape == "sphere":
+            points.append(centre - [0.0, 0.0, shape.size[0]])
+        else:
+            half = rotation @ np.array([0.0, 0.0, shape.size[1] / 2.0])
+            points += [centre + half - [0.0, 0.0, shape.size[0]], centre - half - [0.0, 0.0, shape.size[0]]]
+    points = np.array(points)
+    return points[points[:, 2] < points[:, 2].min() + 0.01]
 
 
 @dataclass

@@ -23,7 +23,7 @@ from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, Context, DiagramBuilder, DiscreteValues, LeafSystem
 
 from hotu_drake.control.clip_plan import ClipPlan
-from hotu_drake.control.whole_body_qp import Sole, Solution, Task, WholeBodyQp
+from hotu_drake.control.whole_body_qp import Sole, Solution, Task, WholeBodyQp, sole_corners
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.actions import ActionScaling
 from hotu_drake.embodiment.spec import SIDES
@@ -62,25 +62,6 @@ def _rotation_vector(rotation) -> np.ndarray:
 
 def _damping(stiffness: float) -> float:
     return 2.0 * np.sqrt(stiffness)
-
-
-def sole_corners(embodiment: Embodiment, link: str) -> np.ndarray:
-    """The lowest points (K, 3) of a foot link's collision shapes, in the link's
-    frame: a sphere's bottom, a box's bottom corners, a capsule's ends' bottoms."""
-    points = []
-    for shape in embodiment.spec.link(link).collisions:
-        centre, rotation = np.asarray(shape.position, float), shape.rotation()
-        if shape.shape == "box":
-            half = np.asarray(shape.size, float) / 2.0
-            corners = np.array(np.meshgrid(*[[-h, h] for h in half])).reshape(3, -1).T
-            points += [centre + rotation @ corner for corner in corners]
-        elif shape.shape == "sphere":
-            points.append(centre - [0.0, 0.0, shape.size[0]])
-        else:
-            half = rotation @ np.array([0.0, 0.0, shape.size[1] / 2.0])
-            points += [centre + half - [0.0, 0.0, shape.size[0]], centre - half - [0.0, 0.0, shape.size[0]]]
-    points = np.array(points)
-    return points[points[:, 2] < points[:, 2].min() + 0.01]
 
 
 class WholeBodyController(LeafSystem):
@@ -150,6 +131,11 @@ class WholeBodyController(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(control_period, control_period - CONTROL_LEAD, self._Update)
         self.DeclareVectorOutputPort("desired_state", 2 * n, self._CalcDesiredState, {self.xd_ticket()})
         self.DeclareVectorOutputPort("torques", n, self._CalcTorques, {self.xd_ticket()})
+
+    @property
+    def soles(self) -> dict[str, Sole]:
+        """The feet's contact corners (per contact name) the controller stands on."""
+        return self._soles
 
     def _CalcDesiredState(self, context: Context, output: BasicVector) -> None:
         n = len(self.embodiment.joint_names)
