@@ -436,6 +436,7 @@ def _(driver: WholeBodyTracking, parts: DiagramParts) -> OutputPort:
         1.0 / parts.scenario.control_rate,
         driver.loop,
         start_time=max(parts.scenario.initial.reference_time, 0.0),
+        plant_step=parts.scenario.time_step,
     )
     parts.outputs["whole_body_torques"] = controller.GetOutputPort("torques")
     return controller.GetOutputPort("desired_state")

@@ -53,7 +53,8 @@ class Performance:
 def perform(clip: MotionClip, hands: str = "none", control_rate: float = 60.0, loop: bool = False) -> Performance:
     """Perform `clip` (of a legged embodiment, starting on its first frame)
     under the whole-body controller at `control_rate` (the plant's step too),
-    for the clip's duration (once, or looping with its root motion)."""
+    over the clip's duration (`loop`: tracked as a loop, its plan looking
+    ahead into the next pass)."""
     from hotu_drake.diagrams import build_simulation
     from hotu_drake.scenario import InitialCondition, Scenario, WholeBodyTracking
 
@@ -145,8 +146,9 @@ def _floor_forces(plant, context, feet: dict[int, int], count: int) -> tuple[np.
     for i in range(results.num_point_pair_contacts()):
         info = results.point_pair_contact_info(i)
         a, b = int(info.bodyA_index()), int(info.bodyB_index())
-        foot = feet.get(b, feet.get(a))
-        if foot is None:
+        world = int(plant.world_body().index())
+        foot = feet.get(b) if a == world else feet.get(a) if b == world else None
+        if foot is None:  # not a foot on the floor (a foot on the other, a foot on an object)
             continue
         force = info.contact_force() if b in feet else -info.contact_force()  # on the foot
         forces[foot] += force

@@ -270,8 +270,19 @@ class Scenario:
             )
         if isinstance(self.driver, ReferenceTracking | WholeBodyTracking) and not self.driver.motion:
             raise InputError(f"!{type(self.driver).__name__} needs a motion", source, "driver.motion")
-        if isinstance(self.driver, WholeBodyTracking) and self.controller != "implicit":
-            raise InputError("!WholeBodyTracking drives the built-in PD (controller: implicit)", source, "driver")
+        if isinstance(self.driver, WholeBodyTracking):
+            if self.controller != "implicit":
+                raise InputError("!WholeBodyTracking drives the built-in PD (controller: implicit)", source, "driver")
+            if self.fixed_base:
+                raise InputError(
+                    "!WholeBodyTracking stands the robot on its feet: not on a fixed base", source, "fixed_base"
+                )
+            if self.initial.reference_time < 0:
+                raise InputError(
+                    "!WholeBodyTracking starts the robot on its clip: give initial.reference_time >= 0",
+                    source,
+                    "initial.reference_time",
+                )
         if self.initial.reference_time >= 0 and not self.reference_motion:
             raise InputError(
                 "needs a reference motion (initial.motion or driver !ReferenceTracking)",

@@ -109,12 +109,18 @@ def test_h1_squats_under_the_controller_without_falling():
 
 def test_a_scenario_names_the_whole_body_driver_in_yaml(tmp_path):
     path = tmp_path / "wbc.yaml"
-    path.write_text("embodiment: h1\ndriver: !WholeBodyTracking {motion: squat, loop: false}\n")
+    start = "initial: {reference_time: 0.0}\n"
+    path.write_text(f"embodiment: h1\n{start}driver: !WholeBodyTracking {{motion: squat, loop: false}}\n")
     scenario = load_scenario(path)
     assert isinstance(scenario.driver, WholeBodyTracking) and scenario.reference_motion == "squat"
-    path.write_text("embodiment: h1\ncontroller: explicit\ndriver: !WholeBodyTracking {motion: squat}\n")
-    with pytest.raises(InputError, match="built-in PD"):
-        load_scenario(path)
+    for wrong, message in (
+        (f"controller: explicit\n{start}", "built-in PD"),
+        (f"fixed_base: true\n{start}", "fixed base"),
+        ("", "reference_time >= 0"),  # it starts the robot on its clip
+    ):
+        path.write_text(f"embodiment: h1\n{wrong}driver: !WholeBodyTracking {{motion: squat}}\n")
+        with pytest.raises(InputError, match=message):
+            load_scenario(path)
 
 
 def test_the_teacher_action_is_the_action_the_controller_takes_in_that_state():
@@ -140,7 +146,8 @@ def test_the_teacher_action_is_the_action_the_controller_takes_in_that_state():
     )
     in_diagram = build_simulation(scenario).systems["whole_body_controller"]
     np.testing.assert_allclose(info["teacher_action"], in_diagram.last_action, atol=1e-4)
-    alone = WholeBodyController(inner.embodiment, inner.clips[0], inner.control_period, loop=False)
+    step = inner.scenario.time_step  # the plant holds an action over two of its steps
+    alone = WholeBodyController(inner.embodiment, inner.clips[0], inner.control_period, False, plant_step=step)
     back = alignment(ClipPlayback(inner.clips[0], loop=False), 1.0).inverse()
     plant, model, context = inner.sim.plant, inner.sim.model, inner._plant_context
     root = plant.GetBodyByName("pelvis", model)

@@ -129,8 +129,9 @@ class ClipPlan:
         """Set `context` (of the plan's plant) to the clip's state at `time`."""
         index, clip_time = self.pass_at(time)
         q, v = self.playback.joints_at(clip_time)
+        still = not self.loop and time >= self.period  # a clip that has ended holds its last pose, at rest
         positions, velocities = self.plant.GetPositions(context), self.plant.GetVelocities(context)
-        positions[self._joint_positions], velocities[self._joint_velocities] = q, v
+        positions[self._joint_positions], velocities[self._joint_velocities] = q, 0.0 * v if still else v
         self.plant.SetPositions(context, positions)
         self.plant.SetVelocities(context, velocities)
         if not self.embodiment.floating_base:
@@ -140,6 +141,8 @@ class ClipPlan:
         turn = placement.rotation
         pose = RigidTransform(RotationMatrix(turn), placement.shift) @ RigidTransform(Quaternion(quaternion), position)
         self.plant.SetFreeBodyPose(context, self._root, pose)
+        if still:
+            omega, linear = np.zeros(3), np.zeros(3)
         self.plant.SetFreeBodySpatialVelocity(context, self._root, SpatialVelocity(turn @ omega, turn @ linear))
 
     def planted(self, time: float) -> dict[str, bool]:

@@ -127,6 +127,12 @@ class DiagramEnv(gym.Env):
         drop_height = check_number(drop_height, "drop_height", where, low=0.0, high=1.0, unit="m")
         termination_height = check_number(termination_height, "termination_height", where, low=0.0, high=1.0)
         self.teacher = check_bool(teacher, "teacher", where)
+        if self.teacher and scenario.fixed_base:
+            raise InputError(
+                "the teacher (the whole-body controller) needs the robot on its feet, not a fixed base",
+                where,
+                "teacher",
+            )
         substeps = round(1.0 / (scenario.control_rate * scenario.time_step))
         if substeps < 1 or abs(substeps * scenario.time_step * scenario.control_rate - 1.0) > 1e-9:
             # Otherwise actions would be held, and AMP frames spaced, unevenly.
@@ -378,7 +384,10 @@ class DiagramEnv(gym.Env):
         key = self._teacher_clip
         if key not in self._teachers:
             clip = self.clips[key] if key is not None else standing_clip(self.embodiment)
-            self._teachers[key] = WholeBodyController(self.embodiment, clip, self.control_period, loop=False)
+            step = self.scenario.time_step
+            self._teachers[key] = WholeBodyController(
+                self.embodiment, clip, self.control_period, False, None, 0.0, step
+            )
         return self._teachers[key]
 
     def teacher_action(self) -> np.ndarray:

@@ -22,18 +22,18 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, Context, DiagramBuilder, DiscreteValues, LeafSystem
 
-from hotu_drake.control.clip_plan import ClipPlan
+from hotu_drake.control.clip_plan import GRAVITY, ClipPlan
 from hotu_drake.control.whole_body_qp import Sole, Solution, Task, WholeBodyQp, sole_corners
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.actions import ActionScaling
 from hotu_drake.embodiment.spec import SIDES
 from hotu_drake.motion.clip import MotionClip
-from hotu_drake.plant import actuated_state_indices
+from hotu_drake.plant import actuated_joint_order, actuated_state_indices
 
 
 @dataclass
 class TrackingGains:
-    """Task weights and PD gains (stiffness; damping is critical unless given) of the controller's tasks."""
+    """Task weights and PD stiffnesses of the controller's tasks (each task's damping critical: 2 sqrt(stiffness))."""
 
     com_weight: float = 1000.0
     com_height_stiffness: float = 50.0
@@ -48,7 +48,6 @@ class TrackingGains:
     posture_stiffness: float = 100.0
 
 
-POSITION_SHARE = 1.0
 CONTROL_LEAD = 1e-6  # s: how long before the plant's step the controller acts (`WholeBodyController`)
 TOUCHING = 0.01  # m: a sole with a corner this close to the floor is down
 FOOTING_EASING = 0.6  # s: the time constant over which the tracked clip moves to where the feet stand
@@ -90,11 +89,17 @@ class WholeBodyController(LeafSystem):
         loop: bool = True,
         gains: TrackingGains | None = None,
         start_time: float = 0.0,
+        plant_step: float | None = None,
     ):
-        """`start_time`: the clip's time at the diagram's time 0 (a run that starts partway through it)."""
+        """`start_time`: the clip's time at the diagram's time 0 (a run that
+        starts partway through it); `plant_step`: the simulation's time step
+        (by default the control period), over which the plant's PD holds an
+        action a whole number of steps."""
         super().__init__()
         self.start_time = start_time
         self.embodiment, self.period, self.gains = embodiment, control_period, gains or TrackingGains()
+        self.plant_step = control_period if plant_step is None else plant_step
+        self._steps = max(1, int(round(control_period / self.plant_step)))
         plant = self._plant = MultibodyPlant(0.0)
         self._model = embodiment.add_to_plant(plant, builtin_pd=False)
         plant.Finalize()
@@ -113,12 +118,15 @@ class WholeBodyController(LeafSystem):
             for corners in [sole_corners(embodiment, embodiment.key_bodies[f"{side}_foot"])]
         }
         self.qp = WholeBodyQp(plant, self._soles, embodiment.effort_limits)
+        if actuated_joint_order(plant, self._model) != embodiment.joint_names:
+            raise RuntimeError(f"{embodiment.name}: actuator order differs from the spec's joint order")
         self._q, self._v = actuated_state_indices(plant, self._model, embodiment.joint_names)
         self._actuated_v = self._v - plant.num_positions()  # the joints' rows of vdot
         self._bodies = [plant.GetBodyByName(embodiment.key_bodies[name]) for name in ("pelvis", "torso")]
         self._bodies = list({body.index(): body for body in self._bodies}.values())
         self.last: Solution | None = None
-        self.timings = {"act": 0.0, "qp": 0.0, "calls": 0}  # wall seconds in `act` and in its QP's solve, and the calls
+        # Wall seconds in `act` and in its QP's solve, the calls, and the solves that failed (the last good one used).
+        self.timings = {"act": 0.0, "qp": 0.0, "calls": 0, "failures": 0}
         self.last_action: np.ndarray | None = None
         n = len(embodiment.joint_names)
         self._state = self.DeclareVectorInputPort("state", plant.num_multibody_states())
@@ -147,6 +155,8 @@ class WholeBodyController(LeafSystem):
 
     def _Update(self, context: Context, discrete_state: DiscreteValues) -> None:
         now = context.get_time()
+        if now == 0.0:  # a run (re)starts: nothing carried from an earlier one
+            self.reset()
         time = now if now == 0.0 else now + CONTROL_LEAD
         action = self.act(self._state.Eval(context), self.start_time + time)
         targets = self._scaling.to_targets(action)
@@ -156,23 +166,36 @@ class WholeBodyController(LeafSystem):
         """The action (normalised PD targets, in [-1, 1], as a policy's) for
         robot state `x` ([q; v]) at `time`: the QP's torque u folded into the
         target of the plant's PD, whose velocity target is zero as a policy's
-        is, q* = q + h v' + (u + kd v') / kp with v' = v + h vdot the velocity
-        the QP predicts a step ahead (the PD being implicit over the step h,
-        this gives u when the robot moves as predicted). The QP's solution
-        is kept as `last`."""
+        is: the target whose implicit PD, held over the period's plant steps,
+        gives u on average when the joints move with the accelerations the QP
+        predicts (over one step dt: q* = q + dt v' + (u + kd v') / kp, v' = v
+        + dt vdot). The QP's solution is kept as `last`."""
         start = perf_counter()
-        plant, emb, h = self._plant, self.embodiment, self.period
+        plant, emb = self._plant, self.embodiment
         plant.SetPositionsAndVelocities(self._context, x)
         self.plan.set_reference(self._reference, time)
         self._reference_accelerations = self._accelerations_at(time)
         planted = self.planted(time)
+        self._footing(planted)
         tasks = self.tasks(time, planted)
         solving = perf_counter()
-        self.last = solution = self.qp.solve(self._context, tasks, planted)
+        solution = self.qp.solve(self._context, tasks, planted)
         self.timings["qp"] += perf_counter() - solving
+        if not solution.success and self.last is not None:
+            self.timings["failures"] += 1
+            solution = Solution(self.last.accelerations, self.last.forces, self.last.torques, False)
+        self.last = solution
         q, v = x[self._q], x[self._v]
-        predicted = v + h * solution.accelerations[self._actuated_v]
-        targets = q + h * predicted + (solution.torques + emb.kd * predicted) / emb.kp
+        a, dt, n = solution.accelerations[self._actuated_v], self.plant_step, self._steps
+        # Held over n implicit steps of dt, the PD's mean torque is u when the joints move as predicted
+        # (q_i = q + i dt v + dt^2 a i (i + 1) / 2, v_i = v + i dt a for the steps i = 1..n).
+        mean_step, mean_square = (n + 1) / 2.0, (n + 1) * (n + 2) / 6.0
+        targets = (
+            q
+            + dt * mean_step * v
+            + dt * dt * mean_square * a
+            + (solution.torques + emb.kd * (v + dt * mean_step * a)) / emb.kp
+        )
         self.last_action = np.clip(self._scaling.to_action(targets), -1.0, 1.0)
         self.timings["act"] += perf_counter() - start
         self.timings["calls"] += 1
@@ -202,7 +225,7 @@ class WholeBodyController(LeafSystem):
         for at in (time - step, time + step):
             self.plan.set_reference(nearby, max(at, 0.0))
             velocities.append(plant.GetVelocities(nearby))
-        return (velocities[1] - velocities[0]) / (min(time + step, time + step) - max(time - step, 0.0))
+        return (velocities[1] - velocities[0]) / (time + step - max(time - step, 0.0))
 
     # --- the tasks -----------------------------------------------------------------
 
@@ -225,14 +248,16 @@ class WholeBodyController(LeafSystem):
 
     def tasks(self, time: float, planted: dict[str, bool] | None = None) -> list[Task]:
         """The tracking tasks at `time`, for the state set in the controller's
-        context, with the soles `planted` (by default `planted(time)`)."""
+        context, with the soles `planted` (by default `planted(time)`), the
+        reference and its accelerations as `act` sets them, and the footing
+        as `act` last left it."""
         plant, context, reference, gains = self._plant, self._context, self._reference, self.gains
         world = plant.world_frame()
         kv = JacobianWrtVariable.kV
         com = plant.CalcCenterOfMassPositionInWorld(context)
         com_velocity = plant.CalcCenterOfMassTranslationalVelocityInWorld(context)
         planted = self.planted(time) if planted is None else planted
-        shift = self._footing(planted)
+        shift = self._shift
         com_reference, com_reference_velocity, com_reference_acceleration = self.plan.com_reference(time)
         com_reference = com_reference + shift
         stiffness = gains.com_height_stiffness
@@ -253,8 +278,8 @@ class WholeBodyController(LeafSystem):
         for body in self._bodies:
             jacobian, bias, target = self._body_rows(body, gains.body_stiffness, position=False)
             tasks.append(Task(jacobian, bias, target, gains.body_weight))
-        frequency = np.sqrt(9.81 / max(com_reference[2], 0.1))
-        capture = POSITION_SHARE * (com - com_reference) + (com_velocity - com_reference_velocity) / frequency
+        frequency = np.sqrt(GRAVITY / max(com_reference[2], 0.1))
+        capture = (com - com_reference) + (com_velocity - com_reference_velocity) / frequency
         offset = shift + gains.step_adjustment * np.r_[capture[:2], 0.0]
         for name, sole in self._soles.items():
             if not planted.get(name):
@@ -338,12 +363,14 @@ def AddWholeBodyController(
     loop: bool = True,
     gains: TrackingGains | None = None,
     start_time: float = 0.0,
+    plant_step: float | None = None,
 ) -> WholeBodyController:
     """Add a `WholeBodyController` named `whole_body_controller` tracking
-    `clip` (from its time `start_time` at time 0), its state input wired to
+    `clip` (from its time `start_time` at time 0; the plant stepping every
+    `plant_step`), its state input wired to
     the robot `model` of `plant`; connect its `desired_state` to the
     plant's PD (`AddPdControl`)."""
-    controller = WholeBodyController(embodiment, clip, control_period, loop, gains, start_time)
+    controller = WholeBodyController(embodiment, clip, control_period, loop, gains, start_time, plant_step)
     builder.AddNamedSystem("whole_body_controller", controller)
     builder.Connect(plant.get_state_output_port(model), controller.GetInputPort("state"))
     return controller
