@@ -88,6 +88,7 @@ class ClipPlan:
             shift = clip.root_position[-1] - turn @ clip.root_position[0]
             self._step = Planar(turn, np.array([shift[0], shift[1], 0.0]))
         self.contacts = {name: clip.contact(name).astype(bool) for name in clip.contact_names}
+        self._placements = [Planar()]  # `placement` of each pass so far
         self._feet = {
             f"{side}_foot": plant.GetBodyByName(embodiment.key_bodies[f"{side}_foot"], model)
             for side in ("left", "right")
@@ -120,10 +121,9 @@ class ClipPlan:
 
     def placement(self, index: int) -> Planar:
         """Where pass `index` of a loop puts the clip (pass 0: where it is)."""
-        out = Planar()
-        for _ in range(index):
-            out = self._step @ out
-        return out
+        while len(self._placements) <= index:
+            self._placements.append(self._step @ self._placements[-1])
+        return self._placements[index]
 
     def set_reference(self, context, time: float) -> None:
         """Set `context` (of the plan's plant) to the clip's state at `time`."""

@@ -175,6 +175,10 @@ class WholeBodyController(LeafSystem):
         plant.SetPositionsAndVelocities(self._context, x)
         self.plan.set_reference(self._reference, time)
         self._reference_accelerations = self._accelerations_at(time)
+        # Every body's spatial acceleration in the reference (world frame), for the body tasks' feed-forward.
+        self._goal_accelerations = plant.CalcSpatialAccelerationsFromVdot(
+            self._reference, self._reference_accelerations
+        )
         planted = self.planted(time)
         self._footing(planted)
         tasks = self.tasks(time, planted)
@@ -318,10 +322,6 @@ class WholeBodyController(LeafSystem):
             self._shift += (footing - self._shift) * (1.0 - np.exp(-self.period / FOOTING_EASING))
         return self._shift
 
-    def _goal_accelerations(self) -> list:
-        """Every body's spatial acceleration in the reference (world frame), from its accelerations."""
-        return self._plant.CalcSpatialAccelerationsFromVdot(self._reference, self._reference_accelerations)
-
     def _body_rows(
         self, body, stiffness: float, position: bool, offset: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -335,7 +335,7 @@ class WholeBodyController(LeafSystem):
         pose, goal = plant.EvalBodyPoseInWorld(context, body), plant.EvalBodyPoseInWorld(reference, body)
         velocity = plant.EvalBodySpatialVelocityInWorld(context, body)
         goal_velocity = plant.EvalBodySpatialVelocityInWorld(reference, body)
-        goal_acceleration = self._goal_accelerations()[int(body.index())]
+        goal_acceleration = self._goal_accelerations[int(body.index())]
         damping = _damping(stiffness)
         turn = _rotation_vector(goal.rotation() @ pose.rotation().inverse())
         angular = (
