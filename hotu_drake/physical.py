@@ -143,10 +143,10 @@ def _floor_forces(plant, context, feet: dict[int, int], count: int) -> tuple[np.
     results = plant.get_contact_results_output_port().Eval(context)
     forces = np.zeros((count, 3))
     moment, normal = np.zeros(2), 0.0
+    world = int(plant.world_body().index())
     for i in range(results.num_point_pair_contacts()):
         info = results.point_pair_contact_info(i)
         a, b = int(info.bodyA_index()), int(info.bodyB_index())
-        world = int(plant.world_body().index())
         foot = feet.get(b) if a == world else feet.get(a) if b == world else None
         if foot is None:  # not a foot on the floor (a foot on the other, a foot on an object)
             continue

@@ -45,21 +45,23 @@ def walking_cost(robot: str, seconds: float) -> dict:
 
 def label_cost(robot: str, steps: int) -> dict:
     """Milliseconds per `teacher_action` query in Imitation-v0 (the walk,
-    from a reference start, stepped with the teacher's own actions)."""
+    from a reference start, stepped with the teacher's own actions), asked
+    once a step (made without `teacher=True`, whose `info` would ask again
+    and advance the controller's warm start and footing twice a step)."""
     import gymnasium as gym
 
     import hotu_drake.envs  # noqa: F401 (registers the environments)
 
-    env = gym.make("hotu_drake/Imitation-v0", robot=robot, hands="none", motions=["walk"], teacher=True)
+    env = gym.make("hotu_drake/Imitation-v0", robot=robot, hands="none", motions=["walk"])
     inner = env.unwrapped
-    _, info = env.reset(seed=0, options={"init": "reference", "clip": 0, "time": 0.0})
+    env.reset(seed=0, options={"init": "reference", "clip": 0, "time": 0.0})
     seconds, queries = [], 0
     for _ in range(steps):
         tick = time.perf_counter()
         action = inner.teacher_action()
         seconds.append(time.perf_counter() - tick)
         queries += 1
-        _, _, terminated, truncated, info = env.step(action)
+        _, _, terminated, truncated, _ = env.step(action)
         if terminated or truncated:
             break
     env.close()

@@ -122,6 +122,9 @@ class WholeBodyController(LeafSystem):
             raise RuntimeError(f"{embodiment.name}: actuator order differs from the spec's joint order")
         self._q, self._v = actuated_state_indices(plant, self._model, embodiment.joint_names)
         self._actuated_v = self._v - plant.num_positions()  # the joints' rows of vdot
+        # The posture task's Jacobian: it selects the joints' rows of vdot.
+        self._joint_rows = np.zeros((len(self._actuated_v), plant.num_velocities()))
+        self._joint_rows[np.arange(len(self._actuated_v)), self._actuated_v] = 1.0
         self._bodies = [plant.GetBodyByName(embodiment.key_bodies[name]) for name in ("pelvis", "torso")]
         self._bodies = list({body.index(): body for body in self._bodies}.values())
         self.last: Solution | None = None
@@ -291,17 +294,14 @@ class WholeBodyController(LeafSystem):
                 tasks.append(Task(jacobian, bias, target, gains.swing_weight))
         q, v = plant.GetPositions(context), plant.GetVelocities(context)
         q_reference, v_reference = plant.GetPositions(reference), plant.GetVelocities(reference)
-        positions = self._q
-        velocities = self._v - plant.num_positions()
+        positions, velocities = self._q, self._actuated_v
         stiffness = gains.posture_stiffness
         posture = (
             self._reference_accelerations[velocities]
             + stiffness * (q_reference[positions] - q[positions])
             + _damping(stiffness) * (v_reference[velocities] - v[velocities])
         )
-        selection = np.zeros((len(positions), plant.num_velocities()))
-        selection[np.arange(len(positions)), velocities] = 1.0
-        tasks.append(Task(selection, np.zeros(len(positions)), posture, gains.posture_weight))
+        tasks.append(Task(self._joint_rows, np.zeros(len(positions)), posture, gains.posture_weight))
         return tasks
 
     def _footing(self, planted: dict[str, bool]) -> np.ndarray:
