@@ -3,8 +3,9 @@
 The clip's state at any time (a looping clip with its root motion: each
 pass starts where the last one ended, turned as it ended), its contact
 schedule, and a centre-of-mass path planned by Drake's `ZmpPlanner` from
-the clip's own centre of pressure (the linear inverted pendulum at the
-clip's mean centre-of-mass height), whose LQR feedback gives the CoM
+the clip's footsteps (the pressure under the stance foot's ankle on one
+foot, moving between the feet in double support; the linear inverted
+pendulum at the clip's mean centre-of-mass height), whose LQR feedback gives the CoM
 acceleration for the robot's actual CoM state: a pushed robot's CoM is
 brought back along the plan, not merely pulled to where the clip is.
 """
@@ -19,6 +20,7 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.planning import ZmpPlanner
 from pydrake.trajectories import PiecewisePolynomial
 
+from hotu_drake.control.whole_body_qp import sole_corners
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.playback import ClipPlayback
@@ -28,7 +30,82 @@ from hotu_drake.rotations import heading_yaw, quat_to_matrix, rot_z
 GRAVITY = 9.81
 PRESSURE_SMOOTHING = 0.05  # s: the clip's CoM acceleration averaged over this before it becomes a ZMP path
 PLAN_WEIGHTS = (np.eye(2), 1e-3 * np.eye(2))  # ZmpPlanner's Qy (on the ZMP's error) and R (on its input)
-HOLD_AFTER = 1.0  # s: a clip that does not loop is planned past its end, standing still
+HOLD_AFTER = 1.0  # s: a plan goes on this long past its clip's end, standing still
+SHIFT_TIME = 0.3  # s: how long the planned pressure takes to move between a stance foot and the clip's own
+SUPPORT_SHRINK = 0.5  # the support the plan keeps the pressure in: the soles shrunk this much toward their anchors
+
+
+def _convex_hull(points: np.ndarray) -> np.ndarray:
+    """The corners (counter-clockwise) of the convex hull of 2-D `points` (monotone chain)."""
+    points = np.unique(np.round(points, 9), axis=0)
+    if len(points) < 3:
+        return points
+
+    def half(ordered):
+        chain = []
+        for point in ordered:
+            while len(chain) >= 2 and np.cross(chain[-1] - chain[-2], point - chain[-2]) <= 0.0:
+                chain.pop()
+            chain.append(point)
+        return chain[:-1]
+
+    return np.array(half(points) + half(points[::-1]))
+
+
+def into_support(point: np.ndarray, support: np.ndarray) -> np.ndarray:
+    """`point` (2,), or the nearest point of the convex hull of `support` (K, 2) if it lies outside it."""
+    hull = _convex_hull(support)
+    if len(hull) == 1:
+        return hull[0].copy()
+    edges = np.roll(hull, -1, axis=0) - hull
+    if len(hull) >= 3 and np.all(np.cross(edges, point - hull) >= 0.0):
+        return point.copy()
+    share = np.clip(np.einsum("ij,ij->i", point - hull, edges) / np.einsum("ij,ij->i", edges, edges), 0.0, 1.0)
+    nearest = hull + share[:, None] * edges
+    return nearest[np.argmin(np.linalg.norm(nearest - point, axis=1))]
+
+
+def footstep_zmp(
+    times: np.ndarray,
+    planted: list[tuple[str, ...]],
+    anchors: list[dict[str, np.ndarray]],
+    clip_zmp: np.ndarray,
+    supports: list[np.ndarray | None],
+) -> np.ndarray:
+    """The ZMP path (T, 2) from a clip's footsteps: on one foot, that foot's
+    anchor (`anchors`, per frame and foot); on both, from the last stance
+    foot's anchor to the next's (a short double support), or the clip's own
+    ZMP (`clip_zmp`) kept inside the planted soles (`supports`, per frame
+    the soles' points, or None in the air) with `SHIFT_TIME` s of blending
+    into and out of it (a long one; a clip that never stands on one foot
+    keeps its own path, inside its support)."""
+    zmp = np.array([z if support is None else into_support(z, support) for z, support in zip(clip_zmp, supports)])
+    single = np.array([len(names) == 1 for names in planted])
+    frames = len(times)
+    start = 0
+    while start < frames:
+        end = start
+        while end + 1 < frames and single[end + 1] == single[start] and planted[end + 1] == planted[start]:
+            end += 1
+        if single[start]:
+            name = planted[start][0]
+            zmp[start : end + 1] = [anchors[k][name] for k in range(start, end + 1)]
+        elif planted[start]:
+            before = anchors[start - 1][planted[start - 1][0]] if start > 0 and single[start - 1] else None
+            after = anchors[end + 1][planted[end + 1][0]] if end + 1 < frames and single[end + 1] else None
+            t0 = times[start - 1] if before is not None else times[start]
+            t1 = times[end + 1] if after is not None else times[end]
+            for k in range(start, end + 1):
+                t = times[k]
+                if before is not None and after is not None and t1 - t0 <= 2.0 * SHIFT_TIME:
+                    zmp[k] = before + (t - t0) / (t1 - t0) * (after - before)
+                    continue
+                if before is not None and t - t0 < SHIFT_TIME:
+                    zmp[k] = before + (t - t0) / SHIFT_TIME * (zmp[k] - before)
+                if after is not None and t1 - t < SHIFT_TIME:
+                    zmp[k] = after + (t1 - t) / SHIFT_TIME * (zmp[k] - after)
+        start = end + 1
+    return zmp
 
 
 def standing_clip(embodiment: Embodiment, seconds: float = 2.0, fps: float = 30.0) -> MotionClip:
@@ -94,21 +171,19 @@ class ClipPlan:
             for side in ("left", "right")
             if f"{side}_foot" in embodiment.key_bodies
         }
-        self._reach = self._ankle_reach(plant, context)
+        self._corners = {name: sole_corners(embodiment, foot.name()) for name, foot in self._feet.items()}
+        self._anchor = {name: self._sole_anchor(self._corners[name]) for name in self._feet}
         self._plan_com(context)
 
-    def _ankle_reach(self, plant: MultibodyPlant, context) -> np.ndarray:
-        """How far (m, forward and sideways in the foot's frame) the centre of
-        pressure can lie from a lone stance foot's ankle with the robot's
-        weight on it: its ankle's pitch and roll torque limits over the weight
-        (a foot without a roll joint holds the sideways pressure through the
-        leg: no limit here)."""
-        emb = self.embodiment
-        weight = plant.CalcTotalMass(context, [self.model]) * GRAVITY
-        limit = dict(zip(emb.joint_names, emb.effort_limits))
-        pitch = min(limit.get(f"{side}_ankle_y", np.inf) for side in ("left", "right"))
-        roll = min(limit.get(f"{side}_ankle_x", np.inf) for side in ("left", "right"))
-        return np.array([pitch / weight, roll / weight])
+    @staticmethod
+    def _sole_anchor(corners: np.ndarray) -> np.ndarray:
+        """Where on a sole (a point in the foot's frame) the plan puts the
+        centre of pressure while the robot stands on that foot alone: under
+        the ankle (where its torque holds the weight with the least effort),
+        kept within the middle half of the sole's length, across its middle."""
+        low, high = corners[:, 0].min(), corners[:, 0].max()
+        quarter = (high - low) / 4.0
+        return np.array([np.clip(0.0, low + quarter, high - quarter), corners[:, 1].mean(), corners[:, 2].mean()])
 
     # --- the clip's state ------------------------------------------------------
 
@@ -154,35 +229,44 @@ class ClipPlan:
     # --- the centre of mass --------------------------------------------------------
 
     def _plan_com(self, context) -> None:
-        """The clip's CoM path and its ZMP path, and the ZmpPlanner over them:
-        three passes of a loop (the controller uses the middle one, so the
-        plan's preview never sees an end), or the clip and a still stand."""
+        """The clip's CoM path, the ZMP path from its footsteps, and the
+        ZmpPlanner over them: three passes of a loop (the controller uses the
+        middle one, so the plan's preview never sees an end), or the clip; then
+        a still stand, so the plan ends at rest."""
         clip, plant, fps = self.clip, self.plant, self.clip.fps
         passes = 3 if self.loop else 1
-        times, com, stance = [], [], []
+        times, com, planted, anchors, supports = [], [], [], [], []
         for index in range(passes):
             for frame in range(clip.num_frames - (1 if index < passes - 1 else 0)):
                 time = index * self.period + frame / fps
                 self.set_reference(context, time)
                 times.append(time)
                 com.append(plant.CalcCenterOfMassPositionInWorld(context, [self.model]))
-                planted = [name for name, down in self.planted(time).items() if down]
-                foot = self._feet.get(planted[0]) if len(planted) == 1 else None
-                stance.append(None if foot is None else plant.EvalBodyPoseInWorld(context, foot))
+                planted.append(tuple(sorted(name for name, down in self.planted(time).items() if down)))
+                poses = {name: plant.EvalBodyPoseInWorld(context, foot) for name, foot in self._feet.items()}
+                anchors.append({name: pose.multiply(self._anchor[name])[:2] for name, pose in poses.items()})
+                soles = [
+                    pose.multiply(
+                        (self._anchor[name] + (1.0 - SUPPORT_SHRINK) * (self._corners[name] - self._anchor[name])).T
+                    )[:2].T
+                    for name, pose in poses.items()
+                    if name in planted[-1]
+                ]
+                supports.append(np.vstack(soles) if soles else None)
         times, com = np.array(times), np.array(com)
-        if not self.loop:
-            extra = times[-1] + np.arange(1, int(HOLD_AFTER * fps) + 1) / fps
-            times, com = np.r_[times, extra], np.vstack([com, np.repeat(com[-1:], len(extra), axis=0)])
+        extra = times[-1] + np.arange(1, int(HOLD_AFTER * fps) + 1) / fps
+        times, com = np.r_[times, extra], np.vstack([com, np.repeat(com[-1:], len(extra), axis=0)])
+        planted += [planted[-1]] * len(extra)
+        anchors += [anchors[-1]] * len(extra)
+        supports += [supports[-1]] * len(extra)
         velocity = np.gradient(com, 1.0 / fps, axis=0)
         acceleration = smooth(np.gradient(velocity, 1.0 / fps, axis=0), fps, PRESSURE_SMOOTHING)
+        if not self.loop:
+            velocity[-len(extra) :], acceleration[-len(extra) :] = 0.0, 0.0
         self.com_times, self.com, self.com_velocity, self.com_acceleration = times, com, velocity, acceleration
         self.height = float(np.mean(com[:, 2]))
-        self.zmp = com[:, :2] - com[:, 2:3] / (GRAVITY + acceleration[:, 2:3]) * acceleration[:, :2]
-        for frame, pose in enumerate(stance):  # on one foot: where its ankle's torques can hold the pressure
-            if pose is not None:
-                local = pose.inverse().multiply(np.r_[self.zmp[frame], 0.0])
-                local[:2] = np.clip(local[:2], -self._reach, self._reach)
-                self.zmp[frame] = pose.multiply(local)[:2]
+        clip_zmp = com[:, :2] - com[:, 2:3] / (GRAVITY + acceleration[:, 2:3]) * acceleration[:, :2]
+        self.zmp = footstep_zmp(times, planted, anchors, clip_zmp, supports)
         self.planner = ZmpPlanner()
         start = np.r_[com[0, :2], velocity[0, :2]]
         zmp = PiecewisePolynomial.FirstOrderHold(times, self.zmp.T)
@@ -204,6 +288,14 @@ class ClipPlan:
             for values in (self.com, self.com_velocity, self.com_acceleration)
         )
         return back.point(position), back.rotation @ velocity, back.rotation @ acceleration
+
+    def planned_com(self, time: float) -> tuple[np.ndarray, np.ndarray]:
+        """The ZMP plan's nominal horizontal CoM position and velocity (world, (2,) each) at `time`."""
+        to_plan, at = self._to_plan(time)
+        back = to_plan.inverse()
+        position = np.r_[self.planner.get_nominal_com().value(at).ravel(), 0.0]
+        velocity = np.r_[self.planner.get_nominal_comd().value(at).ravel(), 0.0]
+        return back.point(position)[:2], (back.rotation @ velocity)[:2]
 
     def com_acceleration_for(self, time: float, com: np.ndarray, com_velocity: np.ndarray) -> np.ndarray:
         """The horizontal CoM acceleration (2,) the ZMP plan's LQR asks of a

@@ -41,8 +41,9 @@ class TrackingGains:
     body_stiffness: float = 100.0
     swing_weight: float = 70.0
     swing_stiffness: float = 400.0
-    # A swing foot lands this share of the capture point's error (the CoM's error plus its velocity's over
-    # the pendulum's frequency) away from the clip's footstep: the step that brings a pushed CoM back.
+    # A swing foot lands this share of the capture point's error (the CoM's error against the ZMP plan's
+    # plus its velocity's over the pendulum's frequency) away from the clip's footstep: the step that
+    # brings a pushed CoM back.
     step_adjustment: float = 1.0
     posture_weight: float = 1.0
     posture_stiffness: float = 100.0
@@ -286,8 +287,9 @@ class WholeBodyController(LeafSystem):
             jacobian, bias, target = self._body_rows(body, gains.body_stiffness, position=False)
             tasks.append(Task(jacobian, bias, target, gains.body_weight))
         frequency = np.sqrt(GRAVITY / max(com_reference[2], 0.1))
-        capture = (com - com_reference) + (com_velocity - com_reference_velocity) / frequency
-        offset = shift + gains.step_adjustment * np.r_[capture[:2], 0.0]
+        planned, planned_velocity = self.plan.planned_com(time)
+        capture = (com[:2] - shift[:2] - planned) + (com_velocity[:2] - planned_velocity) / frequency
+        offset = shift + gains.step_adjustment * np.r_[capture, 0.0]
         for name, sole in self._soles.items():
             if not planted.get(name):
                 jacobian, bias, target = self._body_rows(sole.body, gains.swing_stiffness, position=True, offset=offset)
