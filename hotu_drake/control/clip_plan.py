@@ -35,6 +35,11 @@ SHIFT_TIME = 0.3  # s: how long the planned pressure takes to move between a sta
 SUPPORT_SHRINK = 0.5  # the support the plan keeps the pressure in: the soles shrunk this much toward their anchors
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The z of the cross product of 2-D vectors (rows)."""
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
 def _convex_hull(points: np.ndarray) -> np.ndarray:
     """The corners (counter-clockwise) of the convex hull of 2-D `points` (monotone chain)."""
     points = np.unique(np.round(points, 9), axis=0)
@@ -44,7 +49,7 @@ def _convex_hull(points: np.ndarray) -> np.ndarray:
     def half(ordered):
         chain = []
         for point in ordered:
-            while len(chain) >= 2 and np.cross(chain[-1] - chain[-2], point - chain[-2]) <= 0.0:
+            while len(chain) >= 2 and _cross(chain[-1] - chain[-2], point - chain[-2]) <= 0.0:
                 chain.pop()
             chain.append(point)
         return chain[:-1]
@@ -58,7 +63,7 @@ def into_support(point: np.ndarray, support: np.ndarray) -> np.ndarray:
     if len(hull) == 1:
         return hull[0].copy()
     edges = np.roll(hull, -1, axis=0) - hull
-    if len(hull) >= 3 and np.all(np.cross(edges, point - hull) >= 0.0):
+    if len(hull) >= 3 and np.all(_cross(edges, point - hull) >= 0.0):
         return point.copy()
     share = np.clip(np.einsum("ij,ij->i", point - hull, edges) / np.einsum("ij,ij->i", edges, edges), 0.0, 1.0)
     nearest = hull + share[:, None] * edges
