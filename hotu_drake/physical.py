@@ -11,7 +11,9 @@ plant applied and the floor's force on each foot; and a report next to the
 clip: whether and when it fell, its travel against the clip's, joint and
 key-body RMS against the clip, the share of frames with a joint at its
 torque limit, the least margin of its centre of pressure inside the
-support of its loaded feet, and the wall time.
+support of its loaded feet, the wall time, and for a robot that fell what
+in the clip is past it (`cannot`: a flight phase, a joint asked more than
+its torque limit).
 """
 
 from __future__ import annotations
@@ -29,6 +31,8 @@ from hotu_drake.rotations import matrix_to_quat
 
 LOADED = 0.05  # a foot carries the robot when the floor pushes it with this share of its weight or more
 SATURATED = 0.99  # a joint is at its torque limit at this share of it
+FLIGHT = 0.1  # s: no foot down for this long is a flight phase (a jump), which the controller does not plan
+OVER_LIMIT = 0.05  # a joint the clip asks more than its limit of on this share of its frames is past what it can do
 
 
 @dataclass
@@ -134,7 +138,51 @@ def perform(clip: MotionClip, hands: str = "none", control_rate: float = 60.0, l
     report = _report(clip, performed, emb, np.array(record["torques"]))
     report["least_pressure_margin_m"] = _least_margin(np.array(record["corners"]), down, np.array(record["pressure"]))
     report |= {"fell": fell_at is not None, "fell_at_s": fell_at, "frames": done, "wall_time_s": round(wall, 2)}
+    torques = np.array(record["torques"])
+    saturated = (np.abs(torques) >= SATURATED * emb.effort_limits).mean(axis=0) if len(torques) else None
+    report["cannot"] = demands_beyond(clip, emb, saturated) if fell_at is not None else []
     return Performance(performed, np.array(record["actions"]), np.array(record["torques"]), forces, report)
+
+
+def demands_beyond(clip: MotionClip, emb, saturated: np.ndarray | None = None) -> list[str]:
+    """What in `clip` (of embodiment `emb`) is past the robot, a line per
+    reason: a flight phase (no foot down for `FLIGHT` s or more: a jump,
+    which the controller does not plan), and each joint the performance held
+    at its torque limit (`saturated`: per joint, the share of the performed
+    frames) on `OVER_LIMIT` of the frames or more that the clip's own
+    inverse dynamics (`retarget.balance.TorqueDemand`) also asks more than
+    its limit of. Empty: nothing found in the clip that the robot cannot do."""
+    from hotu_drake.retarget.balance import TorqueDemand
+
+    reasons = []
+    names = [name for name in ("left_foot", "right_foot") if name in clip.contact_names]
+    if names:
+        down = np.any([clip.contact(name).astype(bool) for name in names], axis=0)
+        start = None
+        for frame, flag in enumerate([*down, True]):
+            if not flag and start is None:
+                start = frame
+            elif flag and start is not None:
+                seconds = (frame - start) / clip.fps
+                if seconds >= FLIGHT and start > 0:
+                    reasons.append(
+                        f"flight: no foot down for {seconds:.2f} s from {start / clip.fps:.2f} s (a jump; "
+                        "the controller plans no flight phase)"
+                    )
+                start = None
+    contacts = {name.removesuffix("_foot"): clip.contact(name).astype(bool) for name in names}
+    if saturated is None:
+        return reasons
+    ratios = TorqueDemand(emb).ratios(clip, contacts)
+    for j in np.argsort(-saturated):
+        if saturated[j] < OVER_LIMIT:
+            break
+        if ratios[:, j].max() > 1.0:
+            reasons.append(
+                f"torque: {emb.joint_names[j]} at its {emb.effort_limits[j]:g} N m limit on {saturated[j]:.0%} of the "
+                f"performed frames (the clip's inverse dynamics asks up to {ratios[:, j].max():.1f}x it)"
+            )
+    return reasons
 
 
 def _floor_forces(plant, context, feet: dict[int, int], count: int) -> tuple[np.ndarray, np.ndarray]:

@@ -254,3 +254,70 @@ def test_bench_teacher_reports_the_walk_and_the_label_cost():
     assert labels["queries"] == 3 and labels["ms_per_query_median"] > 0.0
     refused = subprocess.run([*command, "--robot", "curi"], capture_output=True, text=True, timeout=120)
     assert refused.returncode != 0 and "whole_body_walk_curi" in refused.stderr
+
+
+def test_a_foot_the_clip_has_down_above_the_floor_is_brought_down_to_it(tmp_path):
+    """A standing clip whose right foot is planted 2 cm above the floor (as
+    a retargeted clip's can be): the controller lands that foot and stands on
+    both, rather than on one leg with the other hovering."""
+    from hotu_drake.motion.clip import MotionClip
+
+    emb = embodiment.load("udh", "none")
+    clip = standing_clip(emb, 2.0)
+    joints = clip.joint_positions.copy()
+    for joint, turn in (("right_hip_y", -0.25), ("right_knee_y", 0.5), ("right_ankle_y", -0.25)):
+        joints[:, clip.joint_names.index(joint)] += turn  # the right knee bent, its sole kept level: lifted
+    lifted = MotionClip.from_positions(
+        emb.name,
+        "standing, one foot lifted",
+        clip.fps,
+        clip.joint_names,
+        joints,
+        clip.root_position,
+        clip.root_quaternion,
+        contact_names=list(clip.contact_names),
+        contacts=clip.contacts,
+    )
+    path = lifted.save(tmp_path / "lifted.npz")
+    scenario = Scenario(
+        embodiment="udh",
+        hands="none",
+        driver=WholeBodyTracking(motion=str(path), loop=False),
+        initial=InitialCondition(reference_time=0.0),
+        control_rate=60,
+    )
+    sim = build_simulation(scenario)
+    controller = sim.systems["whole_body_controller"]
+    plant, reference, sole = controller._plant, controller._reference, controller.soles["right_foot"]
+    controller.plan.set_reference(reference, 1.0)
+    assert plant.EvalBodyPoseInWorld(reference, sole.body).multiply(sole.corners.T)[2].min() > 0.015
+    sim.simulator.AdvanceTo(1.5)
+    assert not sim.fall_check()(sim.plant_context())
+    assert controller.planted(1.5) == {"left_foot": True, "right_foot": True}
+
+
+def test_a_fall_is_explained_by_the_clips_flight_phase():
+    """What the physical report says a robot cannot do: a clip with no foot
+    down for half a second (a jump) names its flight phase; a clip with a
+    foot always down names none."""
+    from hotu_drake.motion.clip import MotionClip
+    from hotu_drake.physical import demands_beyond
+
+    emb = embodiment.load("udh", "none")
+    clip = standing_clip(emb, 2.0)
+    assert demands_beyond(clip, emb) == []
+    contacts = clip.contacts.copy()
+    contacts[30:45] = False  # 1.0 to 1.5 s in the air
+    jump = MotionClip.from_positions(
+        emb.name,
+        "a jump",
+        clip.fps,
+        clip.joint_names,
+        clip.joint_positions,
+        clip.root_position,
+        clip.root_quaternion,
+        contact_names=list(clip.contact_names),
+        contacts=contacts,
+    )
+    (reason,) = demands_beyond(jump, emb)
+    assert reason.startswith("flight: no foot down for 0.50 s from 1.00 s"), reason

@@ -51,6 +51,7 @@ class TrackingGains:
 
 CONTROL_LEAD = 1e-6  # s: how long before the plant's step the controller acts (`WholeBodyController`)
 TOUCHING = 0.01  # m: a sole with a corner this close to the floor is down
+LANDING_DEPTH = 0.005  # m: a foot the clip has down that is not yet down is drawn this far below the floor
 FOOTING_EASING = 0.6  # s: the time constant over which the tracked clip moves to where the feet stand
 
 
@@ -290,9 +291,14 @@ class WholeBodyController(LeafSystem):
         planned, planned_velocity = self.plan.planned_com(time)
         capture = (com[:2] - shift[:2] - planned) + (com_velocity[:2] - planned_velocity) / frequency
         offset = shift + gains.step_adjustment * np.r_[capture, 0.0]
+        landing = self.plan.planted(time)
         for name, sole in self._soles.items():
             if not planted.get(name):
-                jacobian, bias, target = self._body_rows(sole.body, gains.swing_stiffness, position=True, offset=offset)
+                goal = offset
+                if landing.get(name):  # the clip has it down: onto the floor, wherever the clip's sole is
+                    lowest = plant.EvalBodyPoseInWorld(reference, sole.body).multiply(sole.corners.T)[2].min()
+                    goal = offset - [0.0, 0.0, lowest + LANDING_DEPTH]
+                jacobian, bias, target = self._body_rows(sole.body, gains.swing_stiffness, position=True, offset=goal)
                 tasks.append(Task(jacobian, bias, target, gains.swing_weight))
         q, v = plant.GetPositions(context), plant.GetVelocities(context)
         q_reference, v_reference = plant.GetPositions(reference), plant.GetVelocities(reference)

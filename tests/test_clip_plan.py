@@ -1,0 +1,42 @@
+"""The whole-body controller's plan: a ZMP path from the clip's footsteps, kept inside the soles."""
+
+import numpy as np
+
+from hotu_drake.control.clip_plan import SHIFT_TIME, footstep_zmp, into_support
+
+SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+
+
+def test_a_point_inside_the_support_stays_and_one_outside_moves_to_its_nearest_edge():
+    np.testing.assert_allclose(into_support(np.array([0.3, 0.6]), SQUARE), [0.3, 0.6])
+    np.testing.assert_allclose(into_support(np.array([1.5, 0.4]), SQUARE), [1.0, 0.4])
+    np.testing.assert_allclose(into_support(np.array([-1.0, -2.0]), SQUARE), [0.0, 0.0])
+    line = np.array([[0.0, 0.0], [0.0, 1.0]])  # a line foot (BRUCE's): its segment
+    np.testing.assert_allclose(into_support(np.array([0.2, 0.5]), line), [0.0, 0.5])
+
+
+def test_the_planned_pressure_sits_under_the_stance_foot_and_moves_between_feet_in_double_support():
+    """Both feet (1 s), the left (0.5 s), both for 0.2 s, the right (0.5 s):
+    the pressure is under each stance foot's anchor while it stands alone,
+    crosses straight from one to the other in the short double support, and
+    in the long one before the first step keeps the clip's own path, inside
+    the soles, until it shifts onto the left foot."""
+    fps = 100
+    schedule = [("left_foot", "right_foot")] * 100 + [("left_foot",)] * 50
+    schedule += [("left_foot", "right_foot")] * 20 + [("right_foot",)] * 50
+    times = np.arange(len(schedule)) / fps
+    left, right = np.array([0.0, 0.1]), np.array([0.3, -0.1])
+    anchors = [{"left_foot": left, "right_foot": right}] * len(schedule)
+    clip_zmp = np.tile([0.2, 0.5], (len(schedule), 1))  # the clip's own: off to the side
+    sole = np.array([[-0.05, -0.02], [0.05, -0.02], [0.05, 0.02], [-0.05, 0.02]])
+    supports = [np.vstack([anchors[0][name] + sole for name in names]) for names in schedule]
+    zmp = footstep_zmp(times, schedule, anchors, clip_zmp, supports)
+    np.testing.assert_allclose(zmp[100:150], np.tile(left, (50, 1)))
+    np.testing.assert_allclose(zmp[170:], np.tile(right, (50, 1)))
+    crossing = zmp[150:170]
+    assert np.all(np.diff(crossing[:, 0]) > 0) and np.all(np.diff(crossing[:, 1]) < 0)
+    np.testing.assert_allclose(zmp[0], into_support(clip_zmp[0], supports[0]))
+    assert zmp[0, 1] < 0.13  # the clip's pressure, brought inside the soles
+    shift = int(SHIFT_TIME * fps)
+    np.testing.assert_allclose(zmp[: 100 - shift], np.tile(zmp[0], (100 - shift, 1)))
+    assert np.linalg.norm(zmp[99] - left) < np.linalg.norm(zmp[100 - shift] - left)
