@@ -221,7 +221,9 @@ def AddScenario(
 ) -> ScenarioSystems:
     """Add the systems a scenario describes to `builder` (plant and scene
     graph included), leaving `Build` to the caller so that their own systems
-    can join them. `embodiment` overrides the scenario's (e.g. a resized UDH)."""
+    can join them. `embodiment` overrides the scenario's (e.g. a resized UDH).
+    A scenario that varies (`vary`) is built as the member its `seed` draws."""
+    scenario, _ = scenario.drawn()
     emb = embodiment or embodiments.load(scenario.embodiment, scenario.hands)
     clip = _reference_clip(scenario, emb)
     fixed = scenario.fixed_base and emb.floating_base
@@ -297,7 +299,9 @@ def build_simulation(
     simulator.Initialize()
     systems = {system.get_name(): system for system in diagram.GetSystems()}
     plant, model, emb = parts.plant, parts.model, parts.embodiment
-    return Simulation(diagram, plant, model, simulator, emb, scenario, meshcat, systems, parts.objects, parts.reference)
+    return Simulation(
+        diagram, plant, model, simulator, emb, parts.scenario, meshcat, systems, parts.objects, parts.reference
+    )
 
 
 def build_standing_simulation(
@@ -398,6 +402,9 @@ def run_scenario(scenario: Scenario, duration: float | None = None, meshcat=None
         figures["tracking_rms"] = round(float(np.sqrt(np.mean(np.square(errors)))), 4)
     moved = plant.EvalBodyPoseInWorld(context, pelvis).translation() - start_position
     figures["root_travel_m"] = round(float(np.linalg.norm(moved[:2])), 4)
+    _, drawn = scenario.drawn()
+    if drawn:
+        figures |= {"seed": scenario.seed, "drawn": drawn}
     if "whole_body_controller" in sim.systems:
         figures["reference_travel_m"] = round(sim.systems["whole_body_controller"].reference_travel(end), 4)
     return figures

@@ -184,6 +184,22 @@ def default_visualization() -> VisualizationConfig:
 
 
 @dataclass
+class Variation:
+    """What a scenario draws at random from its `seed` (`simulate --seed N`
+    sets it), so one scenario is a family to evaluate over many seeds: each
+    [low, high] range uniformly, `push_speed` for every thrown cube, `task`
+    the task object's start and target from its task's own distribution
+    (`BoxCarry-v0`'s or `DrillGrasp-v0`'s, as the environment draws them);
+    a policy's latent draws follow the seed too. Empty ranges and no
+    `task` draw nothing: the scenario as written."""
+
+    drop_height: list[float] = field(default_factory=list)
+    reference_time: list[float] = field(default_factory=list)
+    push_speed: list[float] = field(default_factory=list)
+    task: bool = False
+
+
+@dataclass
 class Scenario:
     """An embodiment on the floor (or on a fixed base) under PD control,
     driven by `driver`; with optional task objects, thrown cubes and the
@@ -210,6 +226,8 @@ class Scenario:
     perturbations: list[CubeLaunch] = field(default_factory=list)
     visualization: VisualizationConfig = field(default_factory=default_visualization)
     duration: float = 5.0
+    seed: int = 0
+    vary: Variation = field(default_factory=Variation)
     # Set by `load_scenario`: the folder relative paths are resolved in, and
     # where the scenario came from (named in errors found when it is built).
     base_dir: str = ""
@@ -315,12 +333,57 @@ class Scenario:
             check_number(obj.yaw, f"{field_}.yaw", source, low=-10.0, high=10.0, unit="rad")
             if obj.fixed and obj.held:
                 raise InputError(f"object '{obj.instance_name}' cannot be both fixed and held", source, field_)
+        check_number(self.seed, "seed", source, low=0, high=2**31 - 1, integer=True)
+        bounds = {
+            "drop_height": LIMITS["drop_height"],
+            "reference_time": {"low": 0.0},
+            "push_speed": LIMITS["cube_speed"],
+        }
+        for name, limits in bounds.items():
+            span = getattr(self.vary, name)
+            if span and (len(span) != 2 or span[0] > span[1]):
+                raise InputError(f"give [low, high] with low <= high, not {span}", source, f"vary.{name}")
+            for value in span:
+                check_number(value, f"vary.{name}", source, **limits)
+        check_bool(self.vary.task, "vary.task", source)
+        if self.vary.task and not any(o.is_task_object for o in self.objects):
+            raise InputError("vary.task draws a task object's instance: add a free box or drill", source, "vary.task")
         for i, launch in enumerate(self.perturbations):
             field_ = f"perturbations[{i}]"
             check_vector(launch.start, f"{field_}.start", source, bound=LIMITS["position"]["high"], unit="m")
             check_number(launch.time, f"{field_}.time", source, low=0.0, high=self.duration, unit="s")
             for name in ("speed", "mass", "size", "aim_height"):
                 check_number(getattr(launch, name), f"{field_}.{name}", source, **LIMITS[f"cube_{name}"])
+
+    def drawn(self) -> tuple["Scenario", dict]:
+        """The member of the scenario's family its `seed` picks (`vary`): a
+        copy with the drawn values set, and those values by field name (empty
+        when nothing varies)."""
+        import copy
+
+        import numpy as np
+
+        out, values = copy.deepcopy(self), {}
+        rng = np.random.default_rng(self.seed)
+        if self.vary.drop_height:
+            out.initial.drop_height = values["initial.drop_height"] = float(rng.uniform(*self.vary.drop_height))
+        if self.vary.reference_time:
+            out.initial.reference_time = float(rng.uniform(*self.vary.reference_time))
+            values["initial.reference_time"] = out.initial.reference_time
+        if self.vary.push_speed:
+            for i, launch in enumerate(out.perturbations):
+                launch.speed = values[f"perturbations[{i}].speed"] = float(rng.uniform(*self.vary.push_speed))
+        if self.vary.task:
+            from hotu_drake.motion.library.object_tasks import sample_box_carry, sample_drill_grasp
+
+            obj = next(o for o in out.objects if o.is_task_object)
+            task = (sample_box_carry if obj.kind == "box" else sample_drill_grasp)(rng)
+            obj.position, obj.yaw, obj.target = list(task.start), task.start_yaw, list(task.target)
+            values[f"{obj.instance_name}.start"] = [round(x, 4) for x in task.start]
+            values[f"{obj.instance_name}.target"] = [round(x, 4) for x in task.target]
+        if isinstance(out.driver, PolicyCheckpoint) and self.seed:
+            out.driver.latent_seed = values["driver.latent_seed"] = (self.driver.latent_seed + self.seed) % 2**31
+        return out, {name: round(value, 4) if isinstance(value, float) else value for name, value in values.items()}
 
     def to_yaml(self) -> str:
         """The scenario as YAML (what `load_scenario` reads back)."""

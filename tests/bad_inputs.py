@@ -697,6 +697,20 @@ def _(tmp):
     return "hotu_drake.simulate", [str(systems_dir() / "perturb.yaml"), "--name", "perturb_atlas"]
 
 
+@case("simulate_vary_range_reversed", "cli", "vary.drop_height")
+def _(tmp):
+    path = tmp / "family.yaml"
+    path.write_text("embodiment: h1\nvary:\n  drop_height: [0.3, 0.1]\n")
+    return "hotu_drake.simulate", [str(path), "--seed", "2"]
+
+
+@case("simulate_vary_task_without_object", "cli", "vary.task")
+def _(tmp):
+    path = tmp / "family.yaml"
+    path.write_text("embodiment: h1\nvary:\n  task: true\n")
+    return "hotu_drake.simulate", [str(path)]
+
+
 # --- checkpoints ---------------------------------------------------------------------------------
 
 

@@ -187,16 +187,16 @@ def test_simulate_reports_the_root_travel_against_the_clips():
     assert standing["root_travel_m"] < 0.02 and "reference_travel_m" not in standing
 
 
-def test_walker_walks_the_looped_library_walk_for_ten_seconds():
-    """The shipped `whole_body_walk_walker`: 10 s of the library walk, looped
-    with its root motion, no fall, the pelvis' travel within 15% of the
-    clip's (3.79 against 3.63 m when measured). Walker walked from each of
-    six starts 0-0.05 s into the clip; H1 and the UDH from two and three
-    of them (BENCHMARKS.md), so theirs is no test that passes on any
-    machine."""
+@pytest.mark.parametrize("robot", ["walker", "naviai"])
+def test_the_looped_library_walk_for_ten_seconds(robot):
+    """The shipped `whole_body_walk_<robot>`: 10 s of the library walk,
+    looped with its root motion, no fall, the pelvis' travel within 15% of
+    the clip's. Walker and NAVIAI walked from each of six starts 0-0.05 s
+    into the clip, the UDH from five, H1 from none (BENCHMARKS.md), so
+    theirs is no test that passes on any machine."""
     from hotu_drake.diagrams import run_scenario
 
-    figures = run_scenario(load_scenario("whole_body_walk_walker"))
+    figures = run_scenario(load_scenario(f"whole_body_walk_{robot}"))
     assert not figures["fell"]
     assert figures["reference_travel_m"] > 3.0
     assert abs(figures["root_travel_m"] / figures["reference_travel_m"] - 1.0) < 0.15, figures

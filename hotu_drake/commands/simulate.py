@@ -1,6 +1,6 @@
 """Run a scenario.
 
-    python -m hotu_drake.simulate SCENARIO [--name NAME] [--duration S] [--html OUT.html] [--json]
+    python -m hotu_drake.simulate SCENARIO [--name NAME] [--duration S] [--seed N] [--html OUT.html] [--json]
 
 SCENARIO is the name of a shipped scenario (`stand_h1`, see `--list`) or
 a scenario file (one scenario, or a catalogue with `--name`).
@@ -16,7 +16,10 @@ reference motion also gets `tracking_rms` (rad, joint positions against the
 reference, sampled every 50 ms); every run `root_travel_m` (the pelvis'
 horizontal displacement), and one under the whole-body controller
 (`!WholeBodyTracking`) `reference_travel_m` (its clip's, looping with its
-root motion, over the same time).
+root motion, over the same time). A scenario that varies (`vary`: drop
+height, reference start, push speed, task instance; a policy's latents)
+runs the member its seed draws (`--seed N`), and the figures say which
+(`seed`, `drawn`): one scenario evaluated over many seeds.
 """
 
 import json
@@ -37,6 +40,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--name", help="the scenario to run from a catalogue file (several named scenarios)")
     parser.add_argument("--list", action="store_true", help="list the shipped scenarios and exit")
     parser.add_argument("--duration", type=positive_float, help="simulated seconds (default: the scenario's)")
+    parser.add_argument(
+        "--seed", type=int, help="the member of the scenario's family to run: what its `vary` draws (default: its seed)"
+    )
     parser.add_argument("--html", help="write a Meshcat replay of the run")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
     args = parser.parse_args(argv)
@@ -52,6 +58,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.duration is not None:  # the scenario's own bounds, on the duration asked for
         scenario.duration = args.duration
         scenario.validate("--duration")
+    if args.seed is not None:
+        scenario.seed = args.seed
+        scenario.validate("--seed")
     meshcat = None
     if args.html:
         from pydrake.geometry import StartMeshcat
