@@ -55,7 +55,7 @@ class Performance:
 
 
 def perform(clip: MotionClip, hands: str = "none", control_rate: float = 60.0, loop: bool = False) -> Performance:
-    """Perform `clip` (of a legged embodiment, starting on its first frame)
+    """Perform `clip` (of any embodiment, CURI on its wheeled base; starting on its first frame)
     under the whole-body controller at `control_rate` (the plant's step too),
     over the clip's duration (`loop`: tracked as a loop, its plan looking
     ahead into the next pass)."""
@@ -105,7 +105,8 @@ def perform(clip: MotionClip, hands: str = "none", control_rate: float = 60.0, l
         record["pressure"].append(pressure)
         record["corners"].append(
             np.vstack(
-                [
+                [np.zeros((0, 2))]
+                + [
                     plant.EvalBodyPoseInWorld(context, body).multiply(sole.corners.T).T[:, :2]
                     for body, sole in zip(sole_bodies, soles.values())
                 ]
@@ -132,11 +133,14 @@ def perform(clip: MotionClip, hands: str = "none", control_rate: float = 60.0, l
         contacts=forces[:, :, 2] >= LOADED * weight,
     )
     loaded = forces[:, :, 2] >= LOADED * weight
-    down = np.concatenate(
-        [np.repeat(loaded[:, [i]], len(sole.corners), axis=1) for i, sole in enumerate(soles.values())], 1
-    )
     report = _report(clip, performed, emb, np.array(record["torques"]))
-    report["least_pressure_margin_m"] = _least_margin(np.array(record["corners"]), down, np.array(record["pressure"]))
+    report["least_pressure_margin_m"] = None  # a robot on a base stands on no soles
+    if soles:
+        down = np.concatenate(
+            [np.repeat(loaded[:, [i]], len(sole.corners), axis=1) for i, sole in enumerate(soles.values())], 1
+        )
+        corners, pressure = np.array(record["corners"]), np.array(record["pressure"])
+        report["least_pressure_margin_m"] = _least_margin(corners, down, pressure)
     report |= {"fell": fell_at is not None, "fell_at_s": fell_at, "frames": done, "wall_time_s": round(wall, 2)}
     torques = np.array(record["torques"])
     saturated = (np.abs(torques) >= SATURATED * emb.effort_limits).mean(axis=0) if len(torques) else None
@@ -217,8 +221,11 @@ def _report(clip: MotionClip, performed: MotionClip, emb, torques: np.ndarray) -
     key_error = performed.key_body_positions[:, ours] - clip.key_body_positions[:done, clip_keys]
     key_rms = float(np.sqrt(np.mean(np.sum(np.square(key_error), axis=-1)))) if clip_keys else None
     saturated = np.abs(torques) >= SATURATED * emb.effort_limits
-    travel = np.linalg.norm(performed.root_position[-1, :2] - performed.root_position[0, :2])
-    reference_travel = np.linalg.norm(clip.root_position[done - 1, :2] - clip.root_position[0, :2])
+    # The pelvis' travel (a planar base's too, which moves by its joints, not its root).
+    pelvis = emb.key_bodies["pelvis"]
+    ours, theirs = performed.key_body(pelvis), clip.key_body(pelvis)
+    travel = np.linalg.norm(ours[-1, :2] - ours[0, :2])
+    reference_travel = np.linalg.norm(theirs[done - 1, :2] - theirs[0, :2])
     return {
         "root_travel_m": round(float(travel), 4),
         "reference_travel_m": round(float(reference_travel), 4),

@@ -12,8 +12,9 @@ others are still processed, and the exit code is 2 if any input failed. A
 run whose every input failed writes nothing (no report either), and a
 write that fails removes the run's other outputs. What the readers decided
 (the up axis, the marker set, body parts a capture lacks) is said in
-`note:` lines. With `--physics` each legged robot's clip is also performed
-in the simulator by the whole-body controller (`hotu_drake.physical`):
+`note:` lines. With `--physics` each robot's clip is also performed in
+the simulator by the whole-body controller (`hotu_drake.physical`; CURI on
+its wheeled base):
 DIR/<clip>_<robot>_physical.npz, its figures under "physics" in the
 report, and the performed robots beside the others in the replay.
 """
@@ -33,8 +34,6 @@ from hotu_drake.retarget.pipeline import ROBOTS, has_fingers, to_robot, to_udh
 from hotu_drake.rotations import signed_axis
 
 TARGETS = ("udh", *ROBOTS)
-# The embodiments the whole-body controller performs clips on (`--physics`): those that stand on feet.
-PHYSICAL = tuple(name for name in TARGETS if name != "curi")
 
 
 def _parser() -> ArgumentParser:
@@ -62,7 +61,7 @@ def _parser() -> ArgumentParser:
     parser.add_argument(
         "--physics",
         action="store_true",
-        help="also perform each legged robot's clip in the simulator under the whole-body controller: "
+        help="also perform each robot's clip in the simulator under the whole-body controller: "
         "<clip>_<robot>_physical.npz (states, actions, torques, foot forces), and its figures in the report",
     )
     parser.add_argument("--report", help="write per-clip, per-robot figures as JSON")
@@ -115,7 +114,7 @@ def _check_outputs(args, robots: list[str]) -> Path:
     for stem in stems:
         for robot in robots:
             check_output_path(out / f"{stem}_{robot}.npz")
-            if args.physics and robot in PHYSICAL:
+            if args.physics:
                 check_output_path(out / f"{stem}_{robot}_physical.npz")
     if args.report:
         check_output_path(args.report)
@@ -138,7 +137,7 @@ def main(argv: list[str] | None = None) -> int:
         except ValueError as error:
             raise InputError(f"--up: {error}") from None
     show_notes()
-    physical = len([r for r in robots if r in PHYSICAL]) if args.physics else 0
+    physical = len(robots) if args.physics else 0
     progress = Progress(len(args.inputs) * (1 + len([r for r in robots if r != "udh"]) + physical))
     figures: dict[str, dict] = {}
     failures: list[str] = []
@@ -169,7 +168,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.physics:
             from hotu_drake.physical import perform
 
-            for robot in (r for r in robots if r in PHYSICAL):
+            for robot in robots:
                 clip = results[robot].clip
                 performed[robot] = perform(clip, "full" if has_fingers(clip) else "none")
                 progress.step(f"{stem} -> {robot} performed")
@@ -181,8 +180,6 @@ def main(argv: list[str] | None = None) -> int:
                 figures[stem][robot] = report(source, stage.clip, emb, stage.seconds, stage.margins)
                 if robot in performed:
                     figures[stem][robot]["physics"] = performed[robot].report
-                elif args.physics:
-                    figures[stem][robot]["physics"] = {"skipped": "the whole-body controller drives legged robots only"}
         replays.append((stem, source, results, performed))
     if replays:  # a run whose every input was refused writes nothing, not even the report of its errors
         _write(args, out, robots, figures, failures, replays)

@@ -118,7 +118,9 @@ class WholeBodyQp:
         self._cost = program.AddQuadraticCost(np.eye(n), np.zeros(n), x, True)
         self._solver = OsqpSolver()
         self._options = SolverOptions()
-        for option, value in SETTINGS.items():
+        # Polishing sharpens the contact forces' active set; with no soles there is none to sharpen (and OSQP
+        # would say so on stdout at every step).
+        for option, value in (SETTINGS | ({} if soles else {"polishing": 0})).items():
             self._options.SetOption(self._solver.solver_id(), option, value)
         self._guess = np.zeros(n)
 
@@ -138,6 +140,8 @@ class WholeBodyQp:
             )
             bias = plant.CalcBiasTranslationalAcceleration(context, JacobianWrtVariable.kV, frame, points, world, world)
             biases.append(np.asarray(bias).T.reshape(-1))
+        if not jacobians:  # a robot on a base, not on feet
+            return np.zeros((0, self.nv)), np.zeros(0)
         return np.vstack(jacobians), np.concatenate(biases)
 
     def solve(self, context, tasks: list[Task], planted: dict[str, bool]) -> Solution:
@@ -154,7 +158,9 @@ class WholeBodyQp:
         self._torques.evaluator().UpdateCoefficients(
             actuated, -self._limits - h[self.actuated], self._limits - h[self.actuated]
         )
-        down = np.concatenate([np.full(len(s.corners), bool(planted.get(name))) for name, s in self.soles.items()])
+        down = np.array(
+            [bool(planted.get(name)) for name, sole in self.soles.items() for _ in sole.corners], dtype=bool
+        )
         upper = np.where(np.repeat(down, 3), np.inf, 0.0)
         lower = np.where(np.repeat(down, 3), -np.inf, 0.0)
         lower[2::3] = 0.0

@@ -4,8 +4,10 @@ At each control step the controller sets its own copy of the robot's
 `MultibodyPlant` to the measured state and solves the whole-body QP
 (`control.whole_body_qp`): centre of mass along the clip's ZMP plan
 (`control.clip_plan`, with the plan's LQR feedback), pelvis and torso
-orientation, swing feet, the clip's joint posture, the planted soles'
-corners held still, within friction pyramids and torque limits. It acts
+orientation, swing feet, the hands where the clip handles an object, the
+clip's joint posture, the planted soles' corners held still, within
+friction pyramids and torque limits. A robot on a wheeled base (CURI) has
+no balance to keep: its tasks are the body's, the hands' and the posture. It acts
 through the path a policy acts through: an action (normalised PD targets
 within the joints' limits, the velocity targets zero) for the plant's PD,
 the QP's torque folded into the target (`WholeBodyController.act`), so
@@ -45,6 +47,8 @@ class TrackingGains:
     # plus its velocity's over the pendulum's frequency) away from the clip's footstep: the step that
     # brings a pushed CoM back.
     step_adjustment: float = 1.0
+    hand_weight: float = 10.0  # the hands' positions, where the clip handles an object
+    hand_stiffness: float = 100.0
     posture_weight: float = 1.0
     posture_stiffness: float = 100.0
 
@@ -129,6 +133,13 @@ class WholeBodyController(LeafSystem):
         self._joint_rows[np.arange(len(self._actuated_v)), self._actuated_v] = 1.0
         self._bodies = [plant.GetBodyByName(embodiment.key_bodies[name]) for name in ("pelvis", "torso")]
         self._bodies = list({body.index(): body for body in self._bodies}.values())
+        # The hands in the world where the clip handles an object (elsewhere the posture places them: held
+        # in the world, a walk's swinging hands would pull the body they should balance).
+        self._hands = [
+            plant.GetBodyByName(embodiment.key_bodies[f"{side}_hand"])
+            for side in SIDES
+            if f"{side}_hand" in embodiment.key_bodies and clip.object_names
+        ]
         self.last: Solution | None = None
         # Wall seconds in `act` and in its QP's solve, the calls, and the solves that failed (the last good one used).
         self.timings = {"act": 0.0, "qp": 0.0, "calls": 0, "failures": 0}
@@ -259,13 +270,37 @@ class WholeBodyController(LeafSystem):
         """The tracking tasks at `time`, for the state set in the controller's
         context, with the soles `planted` (by default `planted(time)`), the
         reference and its accelerations as `act` sets them, and the footing
-        as `act` last left it."""
+        as `act` last left it: on feet, the CoM and the swing feet (balance);
+        the pelvis' and torso's orientation, the hands, the joints' posture."""
+        gains, planted = self.gains, self.planted(time) if planted is None else planted
+        tasks = self._balance_tasks(time, planted) if self._soles else []
+        for body in self._bodies:
+            jacobian, bias, target = self._body_rows(body, gains.body_stiffness, position=False)
+            tasks.append(Task(jacobian, bias, target, gains.body_weight))
+        for hand in self._hands:
+            jacobian, bias, target = self._body_rows(hand, gains.hand_stiffness, position=True, offset=self._shift)
+            tasks.append(Task(jacobian[3:], bias[3:], target[3:], gains.hand_weight))
+        plant, context, reference = self._plant, self._context, self._reference
+        q, v = plant.GetPositions(context), plant.GetVelocities(context)
+        q_reference, v_reference = plant.GetPositions(reference), plant.GetVelocities(reference)
+        positions, velocities = self._q, self._actuated_v
+        stiffness = gains.posture_stiffness
+        posture = (
+            self._reference_accelerations[velocities]
+            + stiffness * (q_reference[positions] - q[positions])
+            + _damping(stiffness) * (v_reference[velocities] - v[velocities])
+        )
+        tasks.append(Task(self._joint_rows, np.zeros(len(positions)), posture, gains.posture_weight))
+        return tasks
+
+    def _balance_tasks(self, time: float, planted: dict[str, bool]) -> list[Task]:
+        """The CoM along the ZMP plan (its LQR's horizontal acceleration, the
+        clip's height), and each swing foot to its footstep, moved by the
+        capture point's error (or, one the clip has down, onto the floor)."""
         plant, context, reference, gains = self._plant, self._context, self._reference, self.gains
-        world = plant.world_frame()
-        kv = JacobianWrtVariable.kV
+        world, kv = plant.world_frame(), JacobianWrtVariable.kV
         com = plant.CalcCenterOfMassPositionInWorld(context)
         com_velocity = plant.CalcCenterOfMassTranslationalVelocityInWorld(context)
-        planted = self.planted(time) if planted is None else planted
         shift = self._shift
         com_reference, com_reference_velocity, com_reference_acceleration = self.plan.com_reference(time)
         com_reference = com_reference + shift
@@ -284,9 +319,6 @@ class WholeBodyController(LeafSystem):
                 gains.com_weight,
             )
         ]
-        for body in self._bodies:
-            jacobian, bias, target = self._body_rows(body, gains.body_stiffness, position=False)
-            tasks.append(Task(jacobian, bias, target, gains.body_weight))
         frequency = np.sqrt(GRAVITY / max(com_reference[2], 0.1))
         planned, planned_velocity = self.plan.planned_com(time)
         capture = (com[:2] - shift[:2] - planned) + (com_velocity[:2] - planned_velocity) / frequency
@@ -300,16 +332,6 @@ class WholeBodyController(LeafSystem):
                     goal = offset - [0.0, 0.0, lowest + LANDING_DEPTH]
                 jacobian, bias, target = self._body_rows(sole.body, gains.swing_stiffness, position=True, offset=goal)
                 tasks.append(Task(jacobian, bias, target, gains.swing_weight))
-        q, v = plant.GetPositions(context), plant.GetVelocities(context)
-        q_reference, v_reference = plant.GetPositions(reference), plant.GetVelocities(reference)
-        positions, velocities = self._q, self._actuated_v
-        stiffness = gains.posture_stiffness
-        posture = (
-            self._reference_accelerations[velocities]
-            + stiffness * (q_reference[positions] - q[positions])
-            + _damping(stiffness) * (v_reference[velocities] - v[velocities])
-        )
-        tasks.append(Task(self._joint_rows, np.zeros(len(positions)), posture, gains.posture_weight))
         return tasks
 
     def _footing(self, planted: dict[str, bool]) -> np.ndarray:
