@@ -14,6 +14,7 @@ python -m hotu_drake.bench train    [--robot NAME] [--motions M ...] [--workers 
 python -m hotu_drake.bench readers  [--input FILE ...] [--repeats N]
 python -m hotu_drake.bench clips    [--motions M ...] [--input FILE ...] [--robots NAME ...] [--markdown]
 python -m hotu_drake.bench teacher  [--robot NAME] [--seconds S] [--queries N]
+python -m hotu_drake.bench pushes   [--robots NAME ...] [--momenta KG_M_S ...] [--markdown]
 """
 
 import json
@@ -330,6 +331,28 @@ def _clips(args) -> int:
     return 0
 
 
+def _pushes(args) -> int:
+    from hotu_drake.bench.pushes import push_table
+    from hotu_drake.scenario import shipped_scenarios
+
+    for robot in args.robots:
+        if f"whole_body_walk_{robot}" not in shipped_scenarios():
+            raise InputError(f"--robots: {robot} has no shipped whole_body_walk_{robot} scenario")
+    for momentum in args.momenta:
+        check_number(momentum, "--momenta", low=0.0, high=200.0, unit="kg m/s")
+    rows = push_table(args.robots, args.momenta)
+    if args.markdown:
+        lines = ["| robot | motion | " + " | ".join(f"{m:g} kg m/s" if m else "no cube" for m in args.momenta) + " |"]
+        lines.append("|---|---|" + "---|" * len(args.momenta))
+        for robot in args.robots:
+            for motion in ("standing", "walking"):
+                cells = [f"{r['fell']}/{r['trials']}" for r in rows if r["robot"] == robot and r["motion"] == motion]
+                lines.append(f"| {robot} | {motion} | " + " | ".join(cells) + " |")
+        print("\n".join(lines), file=sys.stderr, flush=True)
+    print(json.dumps({"benchmark": "pushes", "machine": machine(), "rows": rows}, indent=2))
+    return 0
+
+
 def _teacher(args) -> int:
     from hotu_drake.bench.teacher import label_cost, walking_cost
     from hotu_drake.scenario import shipped_scenarios
@@ -420,7 +443,15 @@ def main(argv: list[str] | None = None) -> int:
     teacher.add_argument("--robot", default="h1", help="a robot with a shipped whole_body_walk_<robot> scenario")
     teacher.add_argument("--seconds", type=float, default=10.0, help="simulated seconds of walking")
     teacher.add_argument("--queries", type=int, default=100, help="teacher_action queries timed in Imitation-v0")
+    pushes = sub.add_parser("pushes", help="cubes thrown at robots standing and walking under the controller")
+    pushes.add_argument("--robots", nargs="+", default=["udh", "naviai", "h1", "walker", "bruce"])
+    pushes.add_argument(
+        "--momenta", type=float, nargs="+", default=[0.0, 2.0, 5.0, 10.0, 20.0], help="kg m/s (0: no cube)"
+    )
+    pushes.add_argument("--markdown", action="store_true", help="also print a Markdown table (falls/trials) on stderr")
     args = parser.parse_args(argv)
+    if args.command == "pushes":
+        return _pushes(args)
     if args.command == "teacher":
         return _teacher(args)
     if args.command == "clips":

@@ -11,9 +11,11 @@ each corner k of each sole (its contact points). The program
 
 with h = C(q, v) v - tau_g, is the operational-space / task-space
 inverse-dynamics QP of DAIR Lab's OSC and of TSID (accelerations, forces
-and torques, the torques eliminated through the actuated rows). It is one
-Drake `MathematicalProgram` built once, its coefficients and bounds set at
-each step and solved by OSQP warm-started from the last solution.
+and torques, the torques eliminated through the actuated rows). Its
+sparsity never changes, so it is set up once in OSQP (the design card's
+`osqp`, the solver inside Drake's `OsqpSolver`) and each step only updates
+its values and solves, warm-started from the last solution: Drake's
+`OsqpSolver` sets OSQP up anew on every call, three times the cost here.
 """
 
 from __future__ import annotations
@@ -21,9 +23,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import osqp
+import scipy.sparse as sparse
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
-from pydrake.solvers import MathematicalProgram, OsqpSolver, SolverOptions
 
 from hotu_drake.embodiment import Embodiment
 
@@ -32,7 +35,10 @@ CONTACT_WEIGHT = 1e3  # a planted corner's acceleration, against the tasks' (ord
 FRICTION = 0.8  # a little under the floor's (1.0): the pyramid is inside the cone
 REGULARIZATION = 1e-4
 FORCE_WEIGHT = 1e-6
-SETTINGS = {"verbose": 0, "polishing": 1, "eps_abs": 1e-5, "eps_rel": 1e-5, "max_iter": 4000}
+# OSQP's tolerances: with its workspace (and so its duals) kept from step to step, 1e-3 and polishing walk
+# as 1e-5 did (BENCHMARKS.md) in a quarter of the iterations.
+SETTINGS = {"verbose": False, "polishing": True, "eps_abs": 1e-3, "eps_rel": 1e-3, "max_iter": 4000}
+INFINITY = 1e30  # OSQP's
 
 
 @dataclass
@@ -97,36 +103,43 @@ class WholeBodyQp:
         self.actuated = np.argmax(np.abs(actuation), axis=0)
         self.floating = np.flatnonzero(~np.abs(actuation).any(axis=1))
         self.corners = sum(len(sole.corners) for sole in soles.values())
-        n = nv + 3 * self.corners
-        program = self.program = MathematicalProgram()
-        self.vdot = program.NewContinuousVariables(nv, "vdot")
-        self.f = program.NewContinuousVariables(3 * self.corners, "f")
-        x = np.r_[self.vdot, self.f]
-        self._dynamics = program.AddLinearEqualityConstraint(
-            np.zeros((len(self.floating), n)), np.zeros(len(self.floating)), x
-        )
-        limits = np.asarray(effort_limits, float)
-        self._limits = limits
-        self._torques = program.AddLinearConstraint(np.zeros((len(limits), n)), -limits, limits, x)
-        pyramid = np.zeros((4 * self.corners, 3 * self.corners))
+        forces = 3 * self.corners
+        self.n = n = nv + forces
+        self._limits = np.asarray(effort_limits, float)
+        # Rows of the constraint matrix: the floating base's dynamics, the actuated rows (torque limits), the
+        # friction pyramids, the forces' bounds (zero off the floor, f_z >= 0 on it).
+        self._rows = len(self.floating) + len(self._limits)
+        pyramid = np.zeros((4 * self.corners, n))
         for k in range(self.corners):  # |f_x|, |f_y| <= mu f_z
             for row, (axis, sign) in enumerate(((0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0))):
-                pyramid[4 * k + row, 3 * k + axis] = sign
-                pyramid[4 * k + row, 3 * k + 2] = -friction
-        program.AddLinearConstraint(pyramid, np.full(len(pyramid), -np.inf), np.zeros(len(pyramid)), self.f)
-        self._bounds = program.AddBoundingBoxConstraint(np.zeros(len(self.f)), np.zeros(len(self.f)), self.f)
-        self._cost = program.AddQuadraticCost(np.eye(n), np.zeros(n), x, True)
-        self._solver = OsqpSolver()
-        self._options = SolverOptions()
+                pyramid[4 * k + row, nv + 3 * k + axis] = sign
+                pyramid[4 * k + row, nv + 3 * k + 2] = -friction
+        self._fixed = np.vstack([pyramid, np.eye(n)[nv:]])
+        constraints = np.vstack([np.ones((self._rows, n)), self._fixed])
+        hessian = np.zeros((n, n))
+        hessian[:nv, :nv], hessian[nv:, nv:] = 1.0, np.eye(forces)
+        self._a_pattern = _Pattern(constraints != 0.0)
+        self._p_pattern = _Pattern(np.triu(hessian) != 0.0)
+        self._lower = np.r_[np.zeros(self._rows), np.full(len(pyramid), -INFINITY), np.zeros(forces)]
+        self._upper = np.r_[np.zeros(self._rows), np.zeros(len(pyramid)), np.zeros(forces)]
+        self._solver = osqp.OSQP()
         # Polishing sharpens the contact forces' active set; with no soles there is none to sharpen (and OSQP
         # would say so on stdout at every step).
-        for option, value in (SETTINGS | ({} if soles else {"polishing": 0})).items():
-            self._options.SetOption(self._solver.solver_id(), option, value)
+        settings = SETTINGS | ({} if soles else {"polishing": False})
+        self._solver.setup(
+            self._p_pattern.matrix(np.eye(n)),
+            np.zeros(n),
+            self._a_pattern.matrix(constraints),
+            self._lower,
+            self._upper,
+            **settings,
+        )
         self._guess = np.zeros(n)
 
     def reset(self) -> None:
         """Forget the warm start."""
         self._guess = np.zeros_like(self._guess)
+        self._solver.warm_start(x=self._guess, y=np.zeros(len(self._lower)))
 
     def contact_jacobians(self, context) -> tuple[np.ndarray, np.ndarray]:
         """The soles' corners: their translational Jacobians (3C, nv) and Jdot v (3C,), in the world."""
@@ -153,32 +166,37 @@ class WholeBodyQp:
         jacobian, bias = self.contact_jacobians(context)
         # (M vdot + h - J' f): the generalized forces the actuators must supply, row by row.
         rows = np.hstack([mass, -jacobian.T])
-        self._dynamics.evaluator().UpdateCoefficients(rows[self.floating], -h[self.floating])
         actuated = rows[self.actuated]
-        self._torques.evaluator().UpdateCoefficients(
-            actuated, -self._limits - h[self.actuated], self._limits - h[self.actuated]
-        )
+        constraints = np.vstack([rows[self.floating], actuated, self._fixed])
         down = np.array(
             [bool(planted.get(name)) for name, sole in self.soles.items() for _ in sole.corners], dtype=bool
         )
-        upper = np.where(np.repeat(down, 3), np.inf, 0.0)
-        lower = np.where(np.repeat(down, 3), -np.inf, 0.0)
-        lower[2::3] = 0.0
-        self._bounds.evaluator().set_bounds(lower, upper)
-        n = nv + len(self.f)
+        floating, limits, bounds = len(self.floating), self._limits, len(self._lower) - 3 * self.corners
+        lower, upper = self._lower.copy(), self._upper.copy()
+        lower[:floating] = upper[:floating] = -h[self.floating]
+        lower[floating : self._rows] = -limits - h[self.actuated]
+        upper[floating : self._rows] = limits - h[self.actuated]
+        on = np.repeat(down, 3)  # a planted corner's force is free but for f_z >= 0; one in the air is zero
+        lower[bounds:], upper[bounds:] = np.where(on, -INFINITY, 0.0), np.where(on, INFINITY, 0.0)
+        lower[bounds + 2 :: 3] = 0.0
+        n = self.n
         hessian, gradient = np.zeros((n, n)), np.zeros(n)
         hessian[:nv, :nv] += REGULARIZATION * np.eye(nv)
-        hessian[nv:, nv:] += FORCE_WEIGHT * np.eye(len(self.f))
+        hessian[nv:, nv:] += FORCE_WEIGHT * np.eye(n - nv)
         contact_weight = np.repeat(np.where(down, CONTACT_WEIGHT, 0.0), 3)
         for task in [*tasks, Task(jacobian, bias, np.zeros(len(bias)), contact_weight)]:
             weight = np.broadcast_to(np.asarray(task.weight, float), (len(task.target),))
             weighted = task.jacobian * weight[:, None]
             hessian[:nv, :nv] += weighted.T @ task.jacobian
             gradient[:nv] += weighted.T @ (task.bias - task.target)
-        self._cost.evaluator().UpdateCoefficients(2.0 * hessian, 2.0 * gradient, 0.0, True)
-        result = self._solver.Solve(self.program, self._guess, self._options)
-        x = result.get_x_val() if result.is_success() else self._guess
-        if result.is_success():
+        solver = self._solver
+        solver.update(
+            Px=self._p_pattern.values(hessian), Ax=self._a_pattern.values(constraints), q=gradient, l=lower, u=upper
+        )
+        result = solver.solve(raise_error=False)
+        success = result.info.status_val in SOLVED
+        x = result.x if success else self._guess
+        if success:
             self._guess = x
         vdot, f = x[:nv], x[nv:]
         torques = actuated @ x + h[self.actuated]
@@ -187,4 +205,24 @@ class WholeBodyQp:
             count = len(sole.corners)
             forces[name] = f[3 * start : 3 * (start + count)].reshape(count, 3)
             start += count
-        return Solution(vdot, forces, np.clip(torques, -self._limits, self._limits), result.is_success())
+        return Solution(vdot, forces, np.clip(torques, -self._limits, self._limits), success)
+
+
+SOLVED = (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE)
+
+
+class _Pattern:
+    """A fixed sparsity pattern: the CSC matrix of a dense array's entries
+    there, and those entries in CSC order (OSQP's `update(Px=..., Ax=...)`)."""
+
+    def __init__(self, mask: np.ndarray):
+        self.shape = mask.shape
+        columns, rows = np.nonzero(mask.T)  # column by column, rows ascending: CSC order
+        self.rows, self.columns = rows, columns
+        self.pointers = np.r_[0, np.cumsum(np.bincount(columns, minlength=mask.shape[1]))]
+
+    def values(self, dense: np.ndarray) -> np.ndarray:
+        return dense[self.rows, self.columns]
+
+    def matrix(self, dense: np.ndarray) -> sparse.csc_matrix:
+        return sparse.csc_matrix((self.values(dense), self.rows, self.pointers), shape=self.shape)
