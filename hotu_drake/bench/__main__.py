@@ -15,6 +15,7 @@ python -m hotu_drake.bench readers  [--input FILE ...] [--repeats N]
 python -m hotu_drake.bench clips    [--motions M ...] [--input FILE ...] [--robots NAME ...] [--markdown]
 python -m hotu_drake.bench teacher  [--robot NAME] [--seconds S] [--queries N]
 python -m hotu_drake.bench pushes   [--robots NAME ...] [--momenta KG_M_S ...] [--markdown]
+python -m hotu_drake.bench performs [--robots NAME ...] [--motions M ...] [--input FILE ...] [--seeds N] [--markdown]
 """
 
 import json
@@ -26,7 +27,7 @@ from hotu_drake.bench.clips import LEGGED, clip_rows, markdown, source
 from hotu_drake.bench.clips import LIBRARY as LIBRARY_CLIPS
 from hotu_drake.bench.standing import machine, one_core, pin_to_one_core, standing_realtime_factor
 from hotu_drake.cli import ArgumentParser, positive_float, run_cli
-from hotu_drake.errors import InputError, check_number
+from hotu_drake.errors import InputError, check_choice, check_number
 from hotu_drake.scenario import DEFAULT_TIME_STEP, LIMITS, MAX_PLANT_STEPS, default_plant_config
 
 BASELINE_PLANT = (1.0 / 180.0, 1.0)  # hotu_drake 0.2's environments: 1/180 s, Drake's default near-rigid threshold
@@ -331,6 +332,36 @@ def _clips(args) -> int:
     return 0
 
 
+def _performs(args) -> int:
+    from hotu_drake.bench.performs import looped_walk_row, perform_row
+    from hotu_drake.bench.performs import markdown as performs_markdown
+    from hotu_drake.motion.library import MOTIONS
+    from hotu_drake.motion.load import load_motion
+    from hotu_drake.retarget.pipeline import library_clip, to_robot, to_udh
+
+    for robot in args.robots:
+        check_choice(robot, "--robots", embodiment.EMBODIMENT_NAMES)
+    for motion in args.motions:
+        check_choice(motion, "--motions", MOTIONS)
+    check_number(args.seeds, "--seeds", low=0, high=100, integer=True)
+    captures = {Path(path).stem: to_udh(load_motion(path), "none").clip for path in args.input}
+    pin_to_one_core()
+    rows = []
+    for robot in args.robots:
+        clips = {motion: library_clip(motion, robot, "none") for motion in args.motions}
+        clips |= {stem: udh if robot == "udh" else to_robot(udh, robot, "none").clip for stem, udh in captures.items()}
+        for motion, clip in clips.items():
+            rows.append(perform_row(robot, motion, clip))
+            print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
+        if args.seeds and embodiment.load(robot, "none").floating_base:
+            rows.append(looped_walk_row(robot, args.seeds))
+            print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
+    if args.markdown:
+        print(performs_markdown(rows, args.robots), file=sys.stderr, flush=True)
+    print(json.dumps({"benchmark": "performs", "machine": machine(), "rows": rows}, indent=2))
+    return 0
+
+
 def _pushes(args) -> int:
     from hotu_drake.bench.pushes import push_table
     from hotu_drake.scenario import shipped_scenarios
@@ -449,7 +480,36 @@ def main(argv: list[str] | None = None) -> int:
         "--momenta", type=float, nargs="+", default=[0.0, 2.0, 5.0, 10.0, 20.0], help="kg m/s (0: no cube)"
     )
     pushes.add_argument("--markdown", action="store_true", help="also print a Markdown table (falls/trials) on stderr")
+    performs = sub.add_parser("performs", help="each robot performing each motion under the whole-body controller")
+    performs.add_argument("--robots", nargs="+", default=["udh", "naviai", "h1", "walker", "bruce", "curi"])
+    performs.add_argument(
+        "--motions",
+        nargs="+",
+        default=[
+            "walk",
+            "squat",
+            "wave",
+            "boxing",
+            "handshake",
+            "leg_stretch",
+            "box_carry",
+            "walk_fast",
+            "walk_turn_left",
+            "walk_turn_right",
+            "turn_in_place_left",
+            "turn_in_place_right",
+            "sidestep_left",
+            "sidestep_right",
+            "walk_backward",
+            "start_stop",
+        ],
+    )
+    performs.add_argument("--input", nargs="*", default=[], help="captures (BVH, C3D) retargeted and performed too")
+    performs.add_argument("--seeds", type=int, default=6, help="seeds of the 10 s looped walk (0: none)")
+    performs.add_argument("--markdown", action="store_true", help="also print a Markdown table on stderr")
     args = parser.parse_args(argv)
+    if args.command == "performs":
+        return _performs(args)
     if args.command == "pushes":
         return _pushes(args)
     if args.command == "teacher":

@@ -1,0 +1,82 @@
+"""What the whole-body controller performs: each robot, each motion.
+
+Each library motion once (`physical.perform` on the robot's clip, `loop:
+false`): whether the robot stayed up, its travel against the clip's, the
+share of frames with a joint at its torque limit, and, for a robot that
+fell, what in the clip is past it (`Performance.report["cannot"]`). The
+library walk looped for 10 s (`whole_body_walk_<robot>`) from several
+seeds (its start drawn 0-0.05 s into the clip): how many it walked, and
+its travel against the clip's. A capture (`--input`, a BVH or C3D)
+retargeted and performed once.
+"""
+
+from __future__ import annotations
+
+
+def perform_row(robot: str, motion: str, clip) -> dict:
+    """`clip` (the motion on `robot`) performed once."""
+    from hotu_drake.physical import perform
+    from hotu_drake.retarget.pipeline import has_fingers
+
+    report = perform(clip, "full" if has_fingers(clip) else "none").report
+    reference = report["reference_travel_m"]
+    return {
+        "robot": robot,
+        "motion": motion,
+        "up": not report["fell"],
+        "fell_at_s": report["fell_at_s"],
+        "seconds": round(clip.duration, 2),
+        "travel_ratio": round(report["root_travel_m"] / reference, 3) if reference > 0.2 else None,
+        "torque_at_limit_share": report["torque_saturation_share"],
+        "joint_rms_rad": report["joint_rms_rad"],
+        "cannot": report["cannot"],
+        "wall_time_s": report["wall_time_s"],
+    }
+
+
+def looped_walk_row(robot: str, seeds: int) -> dict:
+    """`whole_body_walk_<robot>` (10 s) from `seeds` seeds: the walks, their travel ratios and fall times."""
+    from hotu_drake.diagrams import run_scenario
+    from hotu_drake.scenario import load_scenario
+
+    ratios, falls = [], []
+    for seed in range(seeds):
+        scenario = load_scenario(f"whole_body_walk_{robot}")
+        scenario.seed = seed
+        figures = run_scenario(scenario)
+        if figures["fell"]:
+            falls.append(seed)
+        ratios.append(round(figures["root_travel_m"] / figures["reference_travel_m"], 3))
+    walked = [r for seed, r in enumerate(ratios) if seed not in falls]
+    return {
+        "robot": robot,
+        "motion": "walk (looped, 10 s)",
+        "walked": seeds - len(falls),
+        "seeds": seeds,
+        "travel_ratio_range": [min(walked), max(walked)] if walked else None,
+        "fell_seeds": falls,
+    }
+
+
+def markdown(rows: list[dict], robots: list[str]) -> str:
+    """The rows as a table: motions down, robots across ("up", or the fall time)."""
+    motions = list(dict.fromkeys(row["motion"] for row in rows))
+    lines = ["| motion | " + " | ".join(robots) + " |", "|---|" + "---|" * len(robots)]
+    for motion in motions:
+        cells = []
+        for robot in robots:
+            row = next((r for r in rows if r["robot"] == robot and r["motion"] == motion), None)
+            if row is None:
+                cells.append("")
+            elif "walked" in row:
+                cells.append(f"{row['walked']}/{row['seeds']}")
+            else:
+                cells.append("up" if row["up"] else f"fell {row['fell_at_s']:.1f} s")
+        lines.append(f"| {motion} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def ratio_note(rows: list[dict]) -> str:
+    """Travel ratios of the motions that go somewhere, for the record."""
+    moved = [r for r in rows if r.get("travel_ratio") is not None and r.get("up")]
+    return ", ".join(f"{r['robot']} {r['motion']} {r['travel_ratio']:.2f}" for r in moved) if moved else ""
