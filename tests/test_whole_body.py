@@ -322,3 +322,36 @@ def test_a_fall_is_explained_by_the_clips_flight_phase():
     )
     (reason,) = demands_beyond(jump, emb)
     assert reason.startswith("flight: no foot down for 0.50 s from 1.00 s"), reason
+
+
+def test_bench_performs_and_pushes_report_falls_per_robot_and_motion():
+    """`bench performs` (each robot's motions under the controller, the
+    looped walk from seeds) and `bench pushes` (cubes at a robot standing
+    and walking): their figures are BENCHMARKS.md's; here that they run and
+    say what happened; a robot with no shipped walk is refused in one line."""
+    import json
+    import subprocess
+    import sys
+
+    command = [sys.executable, "-m", "hotu_drake.bench"]
+    performs = subprocess.run(
+        [*command, "performs", "--robots", "curi", "--motions", "wave", "--seeds", "0"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert performs.returncode == 0, performs.stderr
+    (row,) = json.loads(performs.stdout)["rows"]
+    assert row["robot"] == "curi" and row["motion"] == "wave" and row["up"] and row["cannot"] == []
+    pushes = subprocess.run(
+        [*command, "pushes", "--robots", "walker", "--momenta", "0", "--markdown"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert pushes.returncode == 0, pushes.stderr
+    rows = json.loads(pushes.stdout)["rows"]
+    assert [(r["motion"], r["fell"], r["trials"]) for r in rows] == [("standing", 0, 2), ("walking", 0, 2)]
+    assert "| walker | walking | 0/2 |" in pushes.stderr
+    refused = subprocess.run([*command, "pushes", "--robots", "curi"], capture_output=True, text=True, timeout=120)
+    assert refused.returncode != 0 and "whole_body_walk_curi" in refused.stderr
