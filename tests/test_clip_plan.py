@@ -40,3 +40,38 @@ def test_the_planned_pressure_sits_under_the_stance_foot_and_moves_between_feet_
     shift = int(SHIFT_TIME * fps)
     np.testing.assert_allclose(zmp[: 100 - shift], np.tile(zmp[0], (100 - shift, 1)))
     assert np.linalg.norm(zmp[99] - left) < np.linalg.norm(zmp[100 - shift] - left)
+
+
+def test_a_swing_foot_goes_from_liftoff_to_touchdown_and_a_loop_looks_into_its_next_pass():
+    """`ClipPlan.swing_progress`: 1 while the clip has the foot down, from 0
+    at its last frame down to 1 at its next, a loop's last swing landing in its
+    next pass."""
+    from hotu_drake import embodiment
+    from hotu_drake.control.clip_plan import ClipPlan, standing_clip
+    from hotu_drake.motion.clip import MotionClip
+
+    emb = embodiment.load("udh", "none")
+    clip = standing_clip(emb, 1.0, fps=10.0)  # frames 0-10
+    contacts = clip.contacts.copy()
+    contacts[3:7, 1] = False  # the right foot up over frames 3-6
+    contacts[9:, 1] = False  # and from frame 9 to the end
+    stepping = MotionClip.from_positions(
+        emb.name,
+        "a step",
+        clip.fps,
+        clip.joint_names,
+        clip.joint_positions,
+        clip.root_position,
+        clip.root_quaternion,
+        contact_names=list(clip.contact_names),
+        contacts=contacts,
+    )
+    from pydrake.multibody.plant import MultibodyPlant
+
+    plant = MultibodyPlant(0.0)
+    model = emb.add_to_plant(plant, builtin_pd=False)
+    plant.Finalize()
+    plan = ClipPlan(stepping, plant, model, emb, plant.CreateDefaultContext(), loop=True)
+    progress = [plan.swing_progress("right_foot", frame / 10.0) for frame in range(3, 8)]
+    assert progress == [0.2, 0.4, 0.6, 0.8, 1.0] and plan.swing_progress("left_foot", 0.5) == 1.0  # down at 2 and 7
+    assert 0.0 < plan.swing_progress("right_foot", 0.95) < 1.0  # lands at the next pass's start

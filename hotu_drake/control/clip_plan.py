@@ -231,6 +231,19 @@ class ClipPlan:
         frame = min(max(int(round(clip_time * self.clip.fps)), 0), self.clip.num_frames - 1)
         return {name: bool(flags[frame]) for name, flags in self.contacts.items()}
 
+    def swing_progress(self, name: str, time: float) -> float:
+        """How far (0 at its last frame down, 1 at its next) foot `name` is through its
+        swing at `time` in the clip's schedule (1 while it is down)."""
+        _, clip_time = self.pass_at(time)
+        flags = self.contacts[name]
+        frame = min(max(int(round(clip_time * self.clip.fps)), 0), self.clip.num_frames - 1)
+        if flags[frame]:
+            return 1.0
+        since = flags[frame::-1]  # back to its liftoff (a swing from the clip's start began there)
+        ahead = np.r_[flags[frame:], flags[1:] if self.loop else [True]]  # on to its touchdown
+        lifted = int(np.argmax(since)) if since.any() else frame + 1
+        return lifted / (lifted + int(np.argmax(ahead)))
+
     # --- the centre of mass --------------------------------------------------------
 
     def _plan_com(self, context) -> None:

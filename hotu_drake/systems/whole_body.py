@@ -45,7 +45,7 @@ class TrackingGains:
     swing_stiffness: float = 400.0
     # A swing foot lands this share of the capture point's error (the CoM's error against the ZMP plan's
     # plus its velocity's over the pendulum's frequency) away from the clip's footstep: the step that
-    # brings a pushed CoM back.
+    # brings a pushed CoM back. The offset grows with the swing, from none at liftoff.
     step_adjustment: float = 1.0
     hand_weight: float = 10.0  # the hands' positions, where the clip handles an object
     hand_stiffness: float = 100.0
@@ -326,10 +326,12 @@ class WholeBodyController(LeafSystem):
         landing = self.plan.planted(time)
         for name, sole in self._soles.items():
             if not planted.get(name):
-                goal = offset
+                # The capture offset taken in as the swing goes (none at liftoff, all at touchdown): a foot
+                # yanked toward it as it lifts kicks the body it should catch.
+                goal = shift + self.plan.swing_progress(name, time) * (offset - shift)
                 if landing.get(name):  # the clip has it down: onto the floor, wherever the clip's sole is
                     lowest = plant.EvalBodyPoseInWorld(reference, sole.body).multiply(sole.corners.T)[2].min()
-                    goal = offset - [0.0, 0.0, lowest + LANDING_DEPTH]
+                    goal = goal - [0.0, 0.0, lowest + LANDING_DEPTH]
                 jacobian, bias, target = self._body_rows(sole.body, gains.swing_stiffness, position=True, offset=goal)
                 tasks.append(Task(jacobian, bias, target, gains.swing_weight))
         return tasks
