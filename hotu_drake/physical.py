@@ -162,18 +162,20 @@ def demands_beyond(clip: MotionClip, emb, saturated: np.ndarray | None = None) -
     names = [name for name in ("left_foot", "right_foot") if name in clip.contact_names]
     if names:
         down = np.any([clip.contact(name).astype(bool) for name in names], axis=0)
-        start = None
+        flights, start = [], None
         for frame, flag in enumerate([*down, True]):
             if not flag and start is None:
                 start = frame
             elif flag and start is not None:
-                seconds = (frame - start) / clip.fps
-                if seconds >= FLIGHT and start > 0:
-                    reasons.append(
-                        f"flight: no foot down for {seconds:.2f} s from {start / clip.fps:.2f} s (a jump; "
-                        "the controller plans no flight phase)"
-                    )
+                if (frame - start) / clip.fps >= FLIGHT and start > 0:
+                    flights.append((start / clip.fps, (frame - start) / clip.fps))
                 start = None
+        if flights:
+            longest = max(seconds for _, seconds in flights)
+            reasons.append(
+                f"flight: {len(flights)} phase{'s' if len(flights) > 1 else ''} with no foot down, the first at "
+                f"{flights[0][0]:.2f} s, the longest {longest:.2f} s (a jump; the controller plans no flight phase)"
+            )
     contacts = {name.removesuffix("_foot"): clip.contact(name).astype(bool) for name in names}
     if saturated is None:
         return reasons
