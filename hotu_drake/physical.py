@@ -150,8 +150,8 @@ def perform(clip: MotionClip, hands: str = "none", control_rate: float = 60.0, l
 
 def demands_beyond(clip: MotionClip, emb, saturated: np.ndarray | None = None) -> list[str]:
     """What in `clip` (of embodiment `emb`) is past the robot, a line per
-    reason: a flight phase (no foot down for `FLIGHT` s or more: a jump,
-    which the controller does not plan), and each joint the performance held
+    reason: its flight phases (no foot down for `FLIGHT` s or more: a jump,
+    which the controller does not plan; one line for all), and each joint the performance held
     at its torque limit (`saturated`: per joint, the share of the performed
     frames) on `OVER_LIMIT` of the frames or more that the clip's own
     inverse dynamics (`retarget.balance.TorqueDemand`) also asks more than
