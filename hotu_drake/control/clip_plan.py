@@ -32,6 +32,7 @@ PRESSURE_SMOOTHING = 0.05  # s: the clip's CoM acceleration averaged over this b
 PLAN_WEIGHTS = (np.eye(2), 1e-3 * np.eye(2))  # ZmpPlanner's Qy (on the ZMP's error) and R (on its input)
 HOLD_AFTER = 1.0  # s: a plan goes on this long past its clip's end, standing still
 SHIFT_TIME = 0.3  # s: how long the planned pressure takes to move between a stance foot and the clip's own
+NOMINAL_RATE = 240.0  # Hz: the plan's nominal CoM sampled this often, interpolated between
 SUPPORT_SHRINK = 0.5  # the support the plan keeps the pressure in: the soles shrunk this much toward their anchors
 
 
@@ -240,9 +241,10 @@ class ClipPlan:
         if flags[frame]:
             return 1.0
         since = flags[frame::-1]  # back to its liftoff (a swing from the clip's start began there)
-        ahead = np.r_[flags[frame:], flags[1:] if self.loop else [True]]  # on to its touchdown
+        ahead = flags[frame:]  # on to its touchdown (a loop's next pass, or the held end, has it down)
+        landing = int(np.argmax(ahead)) if ahead.any() else len(ahead) + (int(np.argmax(flags[1:])) if self.loop else 0)
         lifted = int(np.argmax(since)) if since.any() else frame + 1
-        return lifted / (lifted + int(np.argmax(ahead)))
+        return lifted / (lifted + landing)
 
     # --- the centre of mass --------------------------------------------------------
 
@@ -289,6 +291,13 @@ class ClipPlan:
         start = np.r_[com[0, :2], velocity[0, :2]]
         zmp = PiecewisePolynomial.FirstOrderHold(times, self.zmp.T)
         self.planner.Plan(zmp, start, self.height, GRAVITY, *PLAN_WEIGHTS)
+        # The plan's nominal CoM and its velocity at the clip's frames (interpolated between: cheaper than the
+        # planner's trajectories at every control step).
+        com_plan, comd_plan = self.planner.get_nominal_com(), self.planner.get_nominal_comd()
+        self._nominal_times = np.arange(times[0], times[-1], 1.0 / NOMINAL_RATE)
+        self._nominal = np.array(
+            [np.r_[com_plan.value(t).ravel(), comd_plan.value(t).ravel()] for t in self._nominal_times]
+        )
 
     def _to_plan(self, time: float) -> tuple[Planar, float]:
         """The map from the world at `time` into the planned pass, and the plan's time."""
@@ -311,8 +320,9 @@ class ClipPlan:
         """The ZMP plan's nominal horizontal CoM position and velocity (world, (2,) each) at `time`."""
         to_plan, at = self._to_plan(time)
         back = to_plan.inverse()
-        position = np.r_[self.planner.get_nominal_com().value(at).ravel(), 0.0]
-        velocity = np.r_[self.planner.get_nominal_comd().value(at).ravel(), 0.0]
+        at_times, nominal = self._nominal_times, self._nominal
+        position = np.array([np.interp(at, at_times, nominal[:, i]) for i in range(2)] + [0.0])
+        velocity = np.array([np.interp(at, at_times, nominal[:, 2 + i]) for i in range(2)] + [0.0])
         return back.point(position)[:2], (back.rotation @ velocity)[:2]
 
     def com_acceleration_for(self, time: float, com: np.ndarray, com_velocity: np.ndarray) -> np.ndarray:
@@ -320,5 +330,5 @@ class ClipPlan:
         robot whose CoM is at `com` moving at `com_velocity`, at `time`."""
         to_plan, at = self._to_plan(time)
         position, velocity = to_plan.point(com), to_plan.rotation @ com_velocity
-        acceleration = self.planner.ComputeOptimalCoMdd(at, np.r_[position[:2], velocity[:2]])
-        return (to_plan.rotation.T @ np.r_[acceleration, 0.0])[:2]
+        acceleration = self.planner.ComputeOptimalCoMdd(at, np.concatenate([position[:2], velocity[:2]]))
+        return to_plan.rotation[:2, :2].T @ acceleration

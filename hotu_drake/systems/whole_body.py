@@ -176,7 +176,7 @@ class WholeBodyController(LeafSystem):
         time = now if now == 0.0 else now + CONTROL_LEAD
         action = self.act(self._state.Eval(context), self.start_time + time)
         targets = self._scaling.to_targets(action)
-        discrete_state.set_value(np.r_[targets, np.zeros_like(targets), self.last.torques])
+        discrete_state.set_value(np.concatenate([targets, np.zeros_like(targets), self.last.torques]))
 
     def act(self, x: np.ndarray, time: float) -> np.ndarray:
         """The action (normalised PD targets, in [-1, 1], as a policy's) for
@@ -310,7 +310,7 @@ class WholeBodyController(LeafSystem):
             + stiffness * (com_reference[2] - com[2])
             + _damping(stiffness) * (com_reference_velocity[2] - com_velocity[2])
         )
-        target = np.r_[self.plan.com_acceleration_for(time, com - shift, com_velocity), height]
+        target = np.append(self.plan.com_acceleration_for(time, com - shift, com_velocity), height)
         tasks = [
             Task(
                 plant.CalcJacobianCenterOfMassTranslationalVelocity(context, kv, world, world),
@@ -322,7 +322,7 @@ class WholeBodyController(LeafSystem):
         frequency = np.sqrt(GRAVITY / max(com_reference[2], 0.1))
         planned, planned_velocity = self.plan.planned_com(time)
         capture = (com[:2] - shift[:2] - planned) + (com_velocity[:2] - planned_velocity) / frequency
-        offset = shift + gains.step_adjustment * np.r_[capture, 0.0]
+        offset = shift + gains.step_adjustment * np.append(capture, 0.0)
         landing = self.plan.planted(time)
         for name, sole in self._soles.items():
             if not planted.get(name):
@@ -350,7 +350,7 @@ class WholeBodyController(LeafSystem):
             if planted.get(name)
         ]
         if offsets:  # eased toward the new footing: a stance handed to a foot that landed elsewhere is no jump
-            footing = np.r_[np.mean(offsets, axis=0)[:2], 0.0]
+            footing = np.append(np.mean(offsets, axis=0)[:2], 0.0)
             self._shift += (footing - self._shift) * (1.0 - np.exp(-self.period / FOOTING_EASING))
         return self._shift
 
@@ -382,7 +382,7 @@ class WholeBodyController(LeafSystem):
             + stiffness * (goal.translation() + (0.0 if offset is None else offset) - pose.translation())
             + damping * (goal_velocity.translational() - velocity.translational())
         )
-        return jacobian, np.r_[bias.rotational(), bias.translational()], np.r_[angular, linear]
+        return jacobian, np.concatenate([bias.rotational(), bias.translational()]), np.concatenate([angular, linear])
 
 
 def AddWholeBodyController(
