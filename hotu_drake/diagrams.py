@@ -552,6 +552,13 @@ def _reference_clip(scenario: Scenario, emb: Embodiment) -> MotionClip | None:
     if not scenario.reference_motion:
         return None
     clip = reference_clip(scenario.reference_motion, emb, scenario.base_dir or None)
+    if scenario.vary.reference_time and scenario.vary.reference_time[1] > clip.duration:
+        raise InputError(
+            f"vary.reference_time reaches {scenario.vary.reference_time[1]:g} s, beyond the {clip.duration:.2f} s "
+            f"of {scenario.reference_motion}",
+            scenario.source or None,
+            "vary.reference_time",
+        )
     if scenario.initial.reference_time > clip.duration:
         raise InputError(
             f"{scenario.initial.reference_time:g} s is beyond the {clip.duration:.2f} s of {scenario.reference_motion}",

@@ -150,8 +150,9 @@ def perform(clip: MotionClip, hands: str = "none", control_rate: float = 60.0, l
 
 def demands_beyond(clip: MotionClip, emb, saturated: np.ndarray | None = None) -> list[str]:
     """What in `clip` (of embodiment `emb`) is past the robot, a line per
-    reason: its flight phases (no foot down for `FLIGHT` s or more: a jump,
-    which the controller does not plan; one line for all), and each joint the performance held
+    reason: its flight phases (no foot down for `FLIGHT` s or more after
+    its first frame: a jump, which the controller does not plan; one line
+    for all; a clip that starts in the air is started on its feet), and each joint the performance held
     at its torque limit (`saturated`: per joint, the share of the performed
     frames) on `OVER_LIMIT` of the frames or more that the clip's own
     inverse dynamics (`retarget.balance.TorqueDemand`) also asks more than
@@ -225,7 +226,9 @@ def _report(clip: MotionClip, performed: MotionClip, emb, torques: np.ndarray) -
     saturated = np.abs(torques) >= SATURATED * emb.effort_limits
     # The pelvis' travel (a planar base's too, which moves by its joints, not its root).
     pelvis = emb.key_bodies["pelvis"]
-    ours, theirs = performed.key_body(pelvis), clip.key_body(pelvis)
+    has_pelvis = pelvis in clip.key_body_names and pelvis in performed.key_body_names
+    ours = performed.key_body(pelvis) if has_pelvis else performed.root_position
+    theirs = clip.key_body(pelvis) if has_pelvis else clip.root_position
     travel = np.linalg.norm(ours[-1, :2] - ours[0, :2])
     reference_travel = np.linalg.norm(theirs[done - 1, :2] - theirs[0, :2])
     return {

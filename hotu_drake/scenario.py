@@ -190,8 +190,10 @@ class Variation:
     [low, high] range uniformly, `push_speed` for every thrown cube, `task`
     the task object's start and target from its task's own distribution
     (`BoxCarry-v0`'s or `DrillGrasp-v0`'s, as the environment draws them);
-    a policy's latent draws follow the seed too. Empty ranges and no
-    `task` draw nothing: the scenario as written."""
+    a policy's latent draws follow the seed too. The draws come from one
+    generator in the fields' order (a field added to `vary` changes the
+    draws of those after it). Empty ranges and no `task` draw nothing:
+    the scenario as written."""
 
     drop_height: list[float] = field(default_factory=list)
     reference_time: list[float] = field(default_factory=list)
@@ -345,6 +347,10 @@ class Scenario:
                 raise InputError(f"give [low, high] with low <= high, not {span}", source, f"vary.{name}")
             for value in span:
                 check_number(value, f"vary.{name}", source, **limits)
+        if self.vary.reference_time and not self.reference_motion:
+            raise InputError("vary.reference_time draws a start on a reference motion: give one", source, "vary")
+        if self.vary.push_speed and not self.perturbations:
+            raise InputError("vary.push_speed draws the thrown cubes' speed: add perturbations", source, "vary")
         check_bool(self.vary.task, "vary.task", source)
         if self.vary.task and not any(o.is_task_object for o in self.objects):
             raise InputError("vary.task draws a task object's instance: add a free box or drill", source, "vary.task")

@@ -704,6 +704,22 @@ def _(tmp):
     return "hotu_drake.simulate", [str(path), "--seed", "2"]
 
 
+@case("simulate_vary_start_without_a_reference", "cli", "reference motion")
+def _(tmp):
+    path = tmp / "family.yaml"
+    path.write_text("embodiment: h1\nvary:\n  reference_time: [0.0, 0.5]\n")
+    return "hotu_drake.simulate", [str(path)]
+
+
+@case("simulate_vary_start_beyond_the_clip", "cli", "beyond the")
+def _(tmp):
+    path = tmp / "family.yaml"
+    text = "embodiment: h1\ncontrol_rate: 60.0\ninitial: {reference_time: 0.0}\n"
+    text += "driver: !WholeBodyTracking {motion: squat, loop: false}\nvary:\n  reference_time: [0.0, 50.0]\n"
+    path.write_text(text)
+    return "hotu_drake.simulate", [str(path), "--duration", "0.1"]
+
+
 @case("simulate_vary_task_without_object", "cli", "vary.task")
 def _(tmp):
     path = tmp / "family.yaml"

@@ -42,19 +42,19 @@ def test_the_planned_pressure_sits_under_the_stance_foot_and_moves_between_feet_
     assert np.linalg.norm(zmp[99] - left) < np.linalg.norm(zmp[100 - shift] - left)
 
 
-def test_a_swing_foot_goes_from_liftoff_to_touchdown_and_a_loop_looks_into_its_next_pass():
-    """`ClipPlan.swing_progress`: 1 while the clip has the foot down, from 0
-    at its last frame down to 1 at its next, a loop's last swing landing in its
-    next pass."""
+def _stepping_plan(right_up: list[slice], loop: bool = True):
+    """A UDH standing clip (1 s, 10 fps: frames 0-10) with its right foot up over `right_up`, as a plan."""
+    from pydrake.multibody.plant import MultibodyPlant
+
     from hotu_drake import embodiment
     from hotu_drake.control.clip_plan import ClipPlan, standing_clip
     from hotu_drake.motion.clip import MotionClip
 
     emb = embodiment.load("udh", "none")
-    clip = standing_clip(emb, 1.0, fps=10.0)  # frames 0-10
+    clip = standing_clip(emb, 1.0, fps=10.0)
     contacts = clip.contacts.copy()
-    contacts[3:7, 1] = False  # the right foot up over frames 3-6
-    contacts[9:, 1] = False  # and from frame 9 to the end
+    for frames in right_up:
+        contacts[frames, 1] = False
     stepping = MotionClip.from_positions(
         emb.name,
         "a step",
@@ -66,12 +66,26 @@ def test_a_swing_foot_goes_from_liftoff_to_touchdown_and_a_loop_looks_into_its_n
         contact_names=list(clip.contact_names),
         contacts=contacts,
     )
-    from pydrake.multibody.plant import MultibodyPlant
-
     plant = MultibodyPlant(0.0)
     model = emb.add_to_plant(plant, builtin_pd=False)
     plant.Finalize()
-    plan = ClipPlan(stepping, plant, model, emb, plant.CreateDefaultContext(), loop=True)
+    return ClipPlan(stepping, plant, model, emb, plant.CreateDefaultContext(), loop=loop)
+
+
+def test_a_swing_foot_goes_from_its_last_frame_down_to_its_next():
+    """`ClipPlan.swing_progress`: 1 while the clip has the foot down, from its
+    last frame down (0) to its next (1); a loop's last swing lands in its next
+    pass."""
+    plan = _stepping_plan([slice(3, 7), slice(9, None)])  # down at 2 and 7
     progress = [plan.swing_progress("right_foot", frame / 10.0) for frame in range(3, 8)]
-    assert progress == [0.2, 0.4, 0.6, 0.8, 1.0] and plan.swing_progress("left_foot", 0.5) == 1.0  # down at 2 and 7
-    assert 0.0 < plan.swing_progress("right_foot", 0.95) < 1.0  # lands at the next pass's start
+    assert progress == [0.2, 0.4, 0.6, 0.8, 1.0] and plan.swing_progress("left_foot", 0.5) == 1.0
+    assert 0.0 < plan.swing_progress("right_foot", 0.95) < 1.0
+
+
+def test_a_loops_swing_across_the_seam_between_passes_keeps_going():
+    """Up over frames 8-10 and 0-2 of a loop (its frame 10 is its frame 0):
+    the swing runs from frame 7 to the next pass's frame 3, six frames, and
+    its progress grows across the seam."""
+    plan = _stepping_plan([slice(0, 3), slice(8, None)])
+    progress = [plan.swing_progress("right_foot", t) for t in (0.8, 0.9, 1.1, 1.2, 1.3)]
+    np.testing.assert_allclose(progress, [1 / 6, 2 / 6, 4 / 6, 5 / 6, 1.0])

@@ -74,9 +74,3 @@ def markdown(rows: list[dict], robots: list[str]) -> str:
                 cells.append("up" if row["up"] else f"fell {row['fell_at_s']:.1f} s")
         lines.append(f"| {motion} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
-
-
-def ratio_note(rows: list[dict]) -> str:
-    """Travel ratios of the motions that go somewhere, for the record."""
-    moved = [r for r in rows if r.get("travel_ratio") is not None and r.get("up")]
-    return ", ".join(f"{r['robot']} {r['motion']} {r['travel_ratio']:.2f}" for r in moved) if moved else ""

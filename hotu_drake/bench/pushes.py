@@ -2,7 +2,8 @@
 
 A cube (10 cm, 4 m/s, its mass setting the momentum) is thrown at the
 torso from 1 m behind and from 1 m to the left, as `perturb_<robot>`
-throws its cubes: at a robot standing under the controller (tracking its
+throws its cubes (aimed at where the torso is as it is thrown; a cube that
+misses a walking robot counts as survived): at a robot standing under the controller (tracking its
 standing clip, the cube at 0.5 s, 3 s in all) and at one walking
 (`whole_body_walk_<robot>`, the cube at 2.0 s, 6 s in all). A trial
 falls when the robot does (`FallCheck`) before its end.
@@ -64,7 +65,8 @@ def push_table(robots: list[str], momenta: list[float]) -> list[dict]:
         for robot in robots:
             for walking in (False, True):
                 for momentum in momenta:
-                    falls = {d: push_trial(robot, momentum, d, walking, Path(folder)) for d in DIRECTIONS}
+                    directions = list(DIRECTIONS) if momentum > 0 else ["behind"]  # no cube: one run
+                    falls = {d: push_trial(robot, momentum, d, walking, Path(folder)) for d in directions}
                     rows.append(
                         {
                             "robot": robot,

@@ -60,6 +60,8 @@ def _convex_hull(points: np.ndarray) -> np.ndarray:
 
 def into_support(point: np.ndarray, support: np.ndarray) -> np.ndarray:
     """`point` (2,), or the nearest point of the convex hull of `support` (K, 2) if it lies outside it."""
+    if len(support) == 0:
+        raise ValueError("into_support: an empty support holds no point")
     hull = _convex_hull(support)
     if len(hull) == 1:
         return hull[0].copy()
@@ -82,10 +84,14 @@ def footstep_zmp(
     anchor (`anchors`, per frame and foot); on both, from the last stance
     foot's anchor to the next's (a short double support), or the clip's own
     ZMP (`clip_zmp`) kept inside the planted soles (`supports`, per frame
-    the soles' points, or None in the air) with `SHIFT_TIME` s of blending
+    the soles' points, or None in the air: there the last frame's ZMP is
+    held, as the clip's own blows up in a jump) with `SHIFT_TIME` s of blending
     into and out of it (a long one; a clip that never stands on one foot
     keeps its own path, inside its support)."""
     zmp = np.array([z if support is None else into_support(z, support) for z, support in zip(clip_zmp, supports)])
+    for k in range(1, len(zmp)):  # in the air (a jump), the pressure planned where the robot last stood
+        if supports[k] is None:
+            zmp[k] = zmp[k - 1]
     single = np.array([len(names) == 1 for names in planted])
     frames = len(times)
     start = 0
@@ -233,17 +239,23 @@ class ClipPlan:
         return {name: bool(flags[frame]) for name, flags in self.contacts.items()}
 
     def swing_progress(self, name: str, time: float) -> float:
-        """How far (0 at its last frame down, 1 at its next) foot `name` is through its
-        swing at `time` in the clip's schedule (1 while it is down)."""
+        """How far (0 at its last frame down, 1 at its next) foot `name` is
+        through its swing at `time` in the clip's schedule (1 while it is
+        down). A loop's swing may span the seam between passes; a clip that
+        does not loop holds its last frame, so a foot up at its end stays
+        short of 1."""
         _, clip_time = self.pass_at(time)
         flags = self.contacts[name]
         frame = min(max(int(round(clip_time * self.clip.fps)), 0), self.clip.num_frames - 1)
         if flags[frame]:
             return 1.0
-        since = flags[frame::-1]  # back to its liftoff (a swing from the clip's start began there)
-        ahead = flags[frame:]  # on to its touchdown (a loop's next pass, or the held end, has it down)
-        landing = int(np.argmax(ahead)) if ahead.any() else len(ahead) + (int(np.argmax(flags[1:])) if self.loop else 0)
+        since, ahead = flags[frame::-1], flags[frame:]  # back to its liftoff, on to its touchdown
         lifted = int(np.argmax(since)) if since.any() else frame + 1
+        landing = int(np.argmax(ahead)) if ahead.any() else len(ahead)
+        if self.loop and not since.any():  # lifted in the pass before (its last frame is this one's first)
+            lifted += int(np.argmax(flags[-2::-1])) if flags.any() else 0
+        if self.loop and not ahead.any():  # lands in the next pass
+            landing += int(np.argmax(flags[1:])) if flags.any() else 0
         return lifted / (lifted + landing)
 
     # --- the centre of mass --------------------------------------------------------
@@ -252,7 +264,8 @@ class ClipPlan:
         """The clip's CoM path, the ZMP path from its footsteps, and the
         ZmpPlanner over them: three passes of a loop (the controller uses the
         middle one, so the plan's preview never sees an end), or the clip; then
-        a still stand, so the plan ends at rest."""
+        its last frame held for `HOLD_AFTER` s (a clip that ends, at rest; a
+        loop, only so that the planner's last ZMP is held)."""
         clip, plant, fps = self.clip, self.plant, self.clip.fps
         passes = 3 if self.loop else 1
         times, com, planted, anchors, supports = [], [], [], [], []
@@ -262,7 +275,8 @@ class ClipPlan:
                 self.set_reference(context, time)
                 times.append(time)
                 com.append(plant.CalcCenterOfMassPositionInWorld(context, [self.model]))
-                planted.append(tuple(sorted(name for name, down in self.planted(time).items() if down)))
+                feet_down = (name for name, down in self.planted(time).items() if down and name in self._feet)
+                planted.append(tuple(sorted(feet_down)))  # (a clip's hand contacts are not footsteps)
                 poses = {name: plant.EvalBodyPoseInWorld(context, foot) for name, foot in self._feet.items()}
                 anchors.append({name: pose.multiply(self._anchor[name])[:2] for name, pose in poses.items()})
                 soles = [

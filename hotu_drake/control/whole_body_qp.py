@@ -39,6 +39,7 @@ FORCE_WEIGHT = 1e-6
 # as 1e-5 did (BENCHMARKS.md) in a quarter of the iterations.
 SETTINGS = {"verbose": False, "polishing": True, "eps_abs": 1e-3, "eps_rel": 1e-3, "max_iter": 4000}
 INFINITY = 1e30  # OSQP's
+SOLVED = (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE)
 
 
 @dataclass
@@ -198,6 +199,8 @@ class WholeBodyQp:
         x = result.x if success else self._guess
         if success:
             self._guess = x
+        else:  # the next step starts from the last solution, not from the failed iterate
+            solver.warm_start(x=self._guess)
         vdot, f = x[:nv], x[nv:]
         torques = actuated @ x + h[self.actuated]
         forces, start = {}, 0
@@ -206,9 +209,6 @@ class WholeBodyQp:
             forces[name] = f[3 * start : 3 * (start + count)].reshape(count, 3)
             start += count
         return Solution(vdot, forces, np.clip(torques, -self._limits, self._limits), success)
-
-
-SOLVED = (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE)
 
 
 class _Pattern:

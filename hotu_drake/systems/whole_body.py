@@ -4,7 +4,7 @@ At each control step the controller sets its own copy of the robot's
 `MultibodyPlant` to the measured state and solves the whole-body QP
 (`control.whole_body_qp`): centre of mass along the clip's ZMP plan
 (`control.clip_plan`, with the plan's LQR feedback), pelvis and torso
-orientation, swing feet, the hands where the clip handles an object, the
+orientation, swing feet, the hands in a clip that handles an object, the
 clip's joint posture, the planted soles' corners held still, within
 friction pyramids and torque limits. A robot on a wheeled base (CURI) has
 no balance to keep: its tasks are the body's, the hands' and the posture. It acts
@@ -47,7 +47,7 @@ class TrackingGains:
     # plus its velocity's over the pendulum's frequency) away from the clip's footstep: the step that
     # brings a pushed CoM back. The offset grows with the swing, from none at liftoff.
     step_adjustment: float = 1.0
-    hand_weight: float = 10.0  # the hands' positions, where the clip handles an object
+    hand_weight: float = 10.0  # the hands' positions, in a clip that handles an object
     hand_stiffness: float = 100.0
     posture_weight: float = 1.0
     posture_stiffness: float = 100.0
@@ -133,8 +133,8 @@ class WholeBodyController(LeafSystem):
         self._joint_rows[np.arange(len(self._actuated_v)), self._actuated_v] = 1.0
         self._bodies = [plant.GetBodyByName(embodiment.key_bodies[name]) for name in ("pelvis", "torso")]
         self._bodies = list({body.index(): body for body in self._bodies}.values())
-        # The hands in the world where the clip handles an object (elsewhere the posture places them: held
-        # in the world, a walk's swinging hands would pull the body they should balance).
+        # The hands held in the world throughout a clip that handles an object (in any other the posture places
+        # them: held in the world, a walk's swinging hands would pull the body they should balance).
         self._hands = [
             plant.GetBodyByName(embodiment.key_bodies[f"{side}_hand"])
             for side in SIDES
