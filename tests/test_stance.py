@@ -104,6 +104,23 @@ def test_a_planted_foot_is_flat_on_the_floor(udh_walk, robot):
     assert planted_sole_tilt(emb, Tree(emb.spec), pitched, contacts)["median"] > 9.0
 
 
+def test_a_planted_foot_above_the_floor_is_caught_by_the_report(udh_walk):
+    """`planted_sole_height_m`: the library walk's planted soles on H1 lie on
+    the floor (median within 2 mm); the same clip raised 3 cm has every
+    planted frame high."""
+    from hotu_drake.retarget.metrics import PLANTED_HIGH, planted_sole_height
+    from hotu_drake.retarget.tree import Tree
+
+    emb = embodiment.load("h1", "none")
+    clip = to_robot(udh_walk, "h1", "none").clip
+    contacts = {side: clip.contact(f"{side}_foot").astype(bool) for side in ("left", "right")}
+    height = planted_sole_height(emb, Tree(emb.spec), clip, contacts)
+    assert height["median"] < 0.002, height
+    raised = dataclasses.replace(clip, root_position=clip.root_position + [0.0, 0.0, 0.03])
+    high = planted_sole_height(emb, Tree(emb.spec), raised, contacts)
+    assert high["high_share"] == 1.0 and high["median"] > PLANTED_HIGH, high
+
+
 def test_crossed_legs_are_caught_by_the_report():
     """A standing clip with the legs swung across each other: the report says crossed, and how deep they meet."""
     h1 = embodiment.load("h1", "none")

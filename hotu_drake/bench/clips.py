@@ -48,6 +48,7 @@ def clip_rows(name: str, clip: MotionClip, robots: tuple[str, ...] = LEGGED) -> 
                 "stance_ratio": figures["stance_ratio"],
                 "leg_penetration_m": figures["leg_penetration_m"],
                 "planted_sole_tilt_deg": figures["planted_sole_tilt_deg"],
+                "planted_sole_height_m": figures["planted_sole_height_m"],
                 "foot_skate_m_per_s": figures["foot_skate_m_per_s"],
                 "centre_of_pressure_margin": margin,
                 "torque_over_limit_share": figures.get("torque_over_limit_share"),

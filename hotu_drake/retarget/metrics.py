@@ -39,6 +39,7 @@ DIRECTION_FIGURES = ("part_direction_error_deg", "part_direction_error_neutral_d
 # feet from the pelvis), so a wheeled base or a short torso is not penalised twice.
 KEY_BODIES = {"left_wrist": "chest", "right_wrist": "chest", "left_ankle": "pelvis", "right_ankle": "pelvis"}
 LEG_PENETRATION_ALLOWED = 0.005  # m: deeper than this between the two legs counts (`leg_penetration_share`)
+PLANTED_HIGH = 0.01  # m: a planted sole higher than this above the floor counts (`planted_sole_height_m`)
 
 
 def clip_landmarks(emb: embodiments.Embodiment, clip: MotionClip) -> dict[str, np.ndarray]:
@@ -111,6 +112,28 @@ def planted_sole_tilt(emb: embodiments.Embodiment, tree: Tree, clip: MotionClip,
     if not tilt.size:
         return {"median": None, "most": None}
     return {"median": round(float(np.median(tilt)), 2), "most": round(float(tilt.max()), 2)}
+
+
+def planted_sole_height(emb: embodiments.Embodiment, tree: Tree, clip: MotionClip, contacts: dict) -> dict:
+    """How high (m) a planted foot's lowest sole point is above the floor,
+    median and most over the planted frames, and the share of those frames
+    more than `PLANTED_HIGH` up: a foot the clip says stands is on the floor,
+    not hovering (a controller that trusts the flag stands on air)."""
+    soles = Soles(emb.spec, tree)
+    poses = tree.forward_frames(clip.joint_positions, quat_to_matrix(clip.root_quaternion), clip.root_position)
+    heights = [
+        soles.lowest_frames(poses, side)[np.asarray(planted, bool)]
+        for side, planted in contacts.items()
+        if side in soles.feet
+    ]
+    height = np.concatenate(heights) if heights else np.zeros(0)
+    if not height.size:
+        return {"median": None, "most": None, "high_share": None}
+    return {
+        "median": round(float(np.median(height)), 4),
+        "most": round(float(height.max()), 4),
+        "high_share": round(float(np.mean(height > PLANTED_HIGH)), 4),
+    }
 
 
 def report(
@@ -205,6 +228,7 @@ def report(
         )
         out["foot_penetration_m"] = round(max(0.0, -lowest), 4)
         out["planted_sole_tilt_deg"] = planted_sole_tilt(emb, tree, result, contacts)
+        out["planted_sole_height_m"] = planted_sole_height(emb, tree, result, contacts)
         # The robot's own stance (feet apart over its standing width), and its legs clear of each other.
         out["stance_ratio"] = stance(emb, dst)
         depths = leg_contacts(emb).depths(result)
