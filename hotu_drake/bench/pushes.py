@@ -1,12 +1,13 @@
 """Pushes against the whole-body controller: which thrown cubes a robot survives.
 
 A cube (10 cm, 4 m/s, its mass setting the momentum) is thrown at the
-torso from 1 m behind and from 1 m to the left, as `perturb_<robot>`
-throws its cubes (aimed at where the torso is as it is thrown; a cube that
-misses a walking robot counts as survived): at a robot standing under the controller (tracking its
-standing clip, the cube at 0.5 s, 3 s in all) and at one walking
-(`whole_body_walk_<robot>`, the cube at 2.0 s, 6 s in all). A trial
-falls when the robot does (`FallCheck`) before its end.
+torso from 1 m ahead and 1 m to the left (as `perturb_<robot>` throws its
+cubes) and from 1 m behind, aimed at where the torso is as it is thrown (a
+cube that misses a walking robot counts as survived): at a robot standing
+under the controller (tracking its standing clip; the cube at 0.5 s, 3 s
+in all) and at one walking (`whole_body_walk_<robot>`, seed 0; the cube
+at 2.0 s, 6 s in all). A trial falls when the robot does (`FallCheck`)
+before its end.
 """
 
 from __future__ import annotations
@@ -17,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 SPEED = 4.0  # m/s: the cube's
-DIRECTIONS = {"behind": (-1.0, 0.0), "left": (0.0, 1.0)}  # where it is thrown from, in the robot's start frame
+# Where a cube is thrown from, in the robot's start frame: `perturb_<robot>`'s two (ahead, the left) and behind.
+DIRECTIONS = {"ahead": (1.0, 0.0), "left": (0.0, 1.0), "behind": (-1.0, 0.0)}
 
 
 def push_trial(robot: str, momentum: float, direction: str, walking: bool, folder: Path) -> float | None:
