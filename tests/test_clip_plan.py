@@ -89,3 +89,11 @@ def test_a_loops_swing_across_the_seam_between_passes_keeps_going():
     plan = _stepping_plan([slice(0, 3), slice(8, None)])
     progress = [plan.swing_progress("right_foot", t) for t in (0.8, 0.9, 1.1, 1.2, 1.3)]
     np.testing.assert_allclose(progress, [1 / 6, 2 / 6, 4 / 6, 5 / 6, 1.0])
+
+
+def test_until_landing_counts_to_the_next_frame_down():
+    """`ClipPlan.until_landing`: 0 while the foot is down, the seconds to its
+    next frame down, across a loop's seam."""
+    plan = _stepping_plan([slice(0, 3), slice(8, None)])
+    assert plan.until_landing("right_foot", 0.5) == 0.0
+    np.testing.assert_allclose([plan.until_landing("right_foot", t) for t in (0.8, 0.9, 1.1)], [0.5, 0.4, 0.2])

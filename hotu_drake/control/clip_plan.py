@@ -258,6 +258,20 @@ class ClipPlan:
             landing += int(np.argmax(flags[1:])) if flags.any() else 0
         return lifted / (lifted + landing)
 
+    def until_landing(self, name: str, time: float) -> float:
+        """Seconds from `time` until the clip next has foot `name` down (0
+        while it is down; a loop's next pass counts, an ended clip holds its
+        last frame)."""
+        _, clip_time = self.pass_at(time)
+        flags, fps = self.contacts[name], self.clip.fps
+        frame = min(max(int(round(clip_time * fps)), 0), self.clip.num_frames - 1)
+        ahead = flags[frame:]
+        if ahead.any():
+            return int(np.argmax(ahead)) / fps
+        if self.loop and flags.any():
+            return (len(ahead) + int(np.argmax(flags[1:]))) / fps
+        return len(ahead) / fps
+
     # --- the centre of mass --------------------------------------------------------
 
     def _plan_com(self, context) -> None:

@@ -45,7 +45,8 @@ class TrackingGains:
     swing_stiffness: float = 400.0
     # A swing foot lands this share of the capture point's error (the CoM's error against the ZMP plan's
     # plus its velocity's over the pendulum's frequency) away from the clip's footstep: the step that
-    # brings a pushed CoM back. The offset grows with the swing, from none at liftoff.
+    # brings a pushed CoM back, where it will be as the foot lands (`STEP_LOOK_AHEAD`). The offset grows
+    # with the swing, from none at liftoff.
     step_adjustment: float = 1.0
     hand_weight: float = 10.0  # the hands' positions, in a clip that handles an object
     hand_stiffness: float = 100.0
@@ -54,6 +55,7 @@ class TrackingGains:
 
 
 CONTROL_LEAD = 1e-6  # s: how long before the plant's step the controller acts (`WholeBodyController`)
+STEP_LOOK_AHEAD = 0.15  # s: how far ahead a swing foot's step is placed for the capture point's growth
 TOUCHING = 0.01  # m: a sole with a corner this close to the floor is down
 LANDING_DEPTH = 0.005  # m: a foot the clip has down that is not yet down is drawn this far below the floor
 FOOTING_EASING = 0.6  # s: the time constant over which the tracked clip moves to where the feet stand
@@ -326,9 +328,12 @@ class WholeBodyController(LeafSystem):
         landing = self.plan.planted(time)
         for name, sole in self._soles.items():
             if not planted.get(name):
-                # The capture offset taken in as the swing goes (none at liftoff, all at touchdown): a foot
-                # yanked toward it as it lifts kicks the body it should catch.
-                goal = shift + self.plan.swing_progress(name, time) * (offset - shift)
+                # Where the capture point will be as the foot lands (its error grows as exp(frequency t)),
+                # looked ahead at most `STEP_LOOK_AHEAD`; taken in as the swing goes (none at liftoff, all at
+                # touchdown): a foot yanked toward it as it lifts kicks the body it should catch.
+                ahead = min(self.plan.until_landing(name, time), STEP_LOOK_AHEAD)
+                growth = np.exp(frequency * ahead)
+                goal = shift + self.plan.swing_progress(name, time) * growth * (offset - shift)
                 if landing.get(name):  # the clip has it down: onto the floor, wherever the clip's sole is
                     lowest = plant.EvalBodyPoseInWorld(reference, sole.body).multiply(sole.corners.T)[2].min()
                     goal = goal - [0.0, 0.0, lowest + LANDING_DEPTH]
