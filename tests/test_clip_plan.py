@@ -1,5 +1,7 @@
 """The whole-body controller's plan: a ZMP path from the clip's footsteps, kept inside the soles."""
 
+import dataclasses
+
 import numpy as np
 
 from hotu_drake.control.clip_plan import SHIFT_TIME, footstep_zmp, into_support
@@ -48,24 +50,13 @@ def _stepping_plan(right_up: list[slice], loop: bool = True):
 
     from hotu_drake import embodiment
     from hotu_drake.control.clip_plan import ClipPlan, standing_clip
-    from hotu_drake.motion.clip import MotionClip
 
     emb = embodiment.load("udh", "none")
     clip = standing_clip(emb, 1.0, fps=10.0)
     contacts = clip.contacts.copy()
     for frames in right_up:
         contacts[frames, 1] = False
-    stepping = MotionClip.from_positions(
-        emb.name,
-        "a step",
-        clip.fps,
-        clip.joint_names,
-        clip.joint_positions,
-        clip.root_position,
-        clip.root_quaternion,
-        contact_names=list(clip.contact_names),
-        contacts=contacts,
-    )
+    stepping = dataclasses.replace(clip, source="a step", contacts=contacts)
     plant = MultibodyPlant(0.0)
     model = emb.add_to_plant(plant, builtin_pd=False)
     plant.Finalize()

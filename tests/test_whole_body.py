@@ -1,5 +1,7 @@
 """The whole-body controller: its QP's forces and torques, and the robot it keeps up."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 from pydrake.multibody.math import SpatialVelocity
@@ -261,24 +263,13 @@ def test_a_foot_the_clip_has_down_above_the_floor_is_brought_down_to_it(tmp_path
     """A standing clip whose right foot is planted 2 cm above the floor (as
     a retargeted clip's can be): the controller lands that foot and stands on
     both, rather than on one leg with the other hovering."""
-    from hotu_drake.motion.clip import MotionClip
 
     emb = embodiment.load("udh", "none")
     clip = standing_clip(emb, 2.0)
     joints = clip.joint_positions.copy()
     for joint, turn in (("right_hip_y", -0.25), ("right_knee_y", 0.5), ("right_ankle_y", -0.25)):
         joints[:, clip.joint_names.index(joint)] += turn  # the right knee bent, its sole kept level: lifted
-    lifted = MotionClip.from_positions(
-        emb.name,
-        "standing, one foot lifted",
-        clip.fps,
-        clip.joint_names,
-        joints,
-        clip.root_position,
-        clip.root_quaternion,
-        contact_names=list(clip.contact_names),
-        contacts=clip.contacts,
-    )
+    lifted = dataclasses.replace(clip, source="standing, one foot lifted", joint_positions=joints)  # (still: v = 0)
     path = lifted.save(tmp_path / "lifted.npz")
     scenario = Scenario(
         embodiment="udh",
@@ -301,7 +292,6 @@ def test_a_fall_is_explained_by_the_clips_flight_phase():
     """What the physical report says a robot cannot do: a clip with no foot
     down for half a second (a jump) names its flight phase; a clip with a
     foot always down names none."""
-    from hotu_drake.motion.clip import MotionClip
     from hotu_drake.physical import demands_beyond
 
     emb = embodiment.load("udh", "none")
@@ -309,17 +299,7 @@ def test_a_fall_is_explained_by_the_clips_flight_phase():
     assert demands_beyond(clip, emb) == []
     contacts = clip.contacts.copy()
     contacts[30:45] = False  # 1.0 to 1.5 s in the air
-    jump = MotionClip.from_positions(
-        emb.name,
-        "a jump",
-        clip.fps,
-        clip.joint_names,
-        clip.joint_positions,
-        clip.root_position,
-        clip.root_quaternion,
-        contact_names=list(clip.contact_names),
-        contacts=contacts,
-    )
+    jump = dataclasses.replace(clip, source="a jump", contacts=contacts)
     (reason,) = demands_beyond(jump, emb)
     assert reason.startswith("flight: 1 phase with no foot down, the first at 1.00 s, the longest 0.50 s"), reason
 

@@ -185,6 +185,11 @@ class ClipPlan:
         }
         self._corners = {name: sole_corners(embodiment, foot.name()) for name, foot in self._feet.items()}
         self._anchor = {name: self._sole_anchor(self._corners[name]) for name in self._feet}
+        # Where the plan keeps the pressure on each sole (3, K in the foot's frame): shrunk toward its anchor.
+        self._support = {
+            name: (self._anchor[name] + (1.0 - SUPPORT_SHRINK) * (corners - self._anchor[name])).T
+            for name, corners in self._corners.items()
+        }
         self._plan_com(context)
 
     @staticmethod
@@ -234,9 +239,21 @@ class ClipPlan:
 
     def planted(self, time: float) -> dict[str, bool]:
         """Per contact name (`left_foot`, `right_foot`), whether the clip has that foot down at `time`."""
-        _, clip_time = self.pass_at(time)
-        frame = min(max(int(round(clip_time * self.clip.fps)), 0), self.clip.num_frames - 1)
+        frame = self._frame(time)
         return {name: bool(flags[frame]) for name, flags in self.contacts.items()}
+
+    def _frame(self, time: float) -> int:
+        """The clip's frame nearest `time` (within its pass of a loop)."""
+        _, clip_time = self.pass_at(time)
+        return min(max(int(round(clip_time * self.clip.fps)), 0), self.clip.num_frames - 1)
+
+    def _frames_to_landing(self, flags: np.ndarray, frame: int) -> int:
+        """Frames from `frame` until `flags` is next down (a loop's next pass
+        counts; an ended clip holds its last frame, so it may never come)."""
+        ahead = flags[frame:]
+        if ahead.any():
+            return int(np.argmax(ahead))
+        return len(ahead) + (int(np.argmax(flags[1:])) if self.loop and flags.any() else 0)
 
     def swing_progress(self, name: str, time: float) -> float:
         """How far (0 at its last frame down, 1 at its next) foot `name` is
@@ -244,33 +261,20 @@ class ClipPlan:
         down). A loop's swing may span the seam between passes; a clip that
         does not loop holds its last frame, so a foot up at its end stays
         short of 1."""
-        _, clip_time = self.pass_at(time)
-        flags = self.contacts[name]
-        frame = min(max(int(round(clip_time * self.clip.fps)), 0), self.clip.num_frames - 1)
+        flags, frame = self.contacts[name], self._frame(time)
         if flags[frame]:
             return 1.0
-        since, ahead = flags[frame::-1], flags[frame:]  # back to its liftoff, on to its touchdown
+        since = flags[frame::-1]  # back to its liftoff
         lifted = int(np.argmax(since)) if since.any() else frame + 1
-        landing = int(np.argmax(ahead)) if ahead.any() else len(ahead)
         if self.loop and not since.any():  # lifted in the pass before (its last frame is this one's first)
             lifted += int(np.argmax(flags[-2::-1])) if flags.any() else 0
-        if self.loop and not ahead.any():  # lands in the next pass
-            landing += int(np.argmax(flags[1:])) if flags.any() else 0
-        return lifted / (lifted + landing)
+        return lifted / (lifted + self._frames_to_landing(flags, frame))
 
     def until_landing(self, name: str, time: float) -> float:
         """Seconds from `time` until the clip next has foot `name` down (0
         while it is down; a loop's next pass counts, an ended clip holds its
         last frame)."""
-        _, clip_time = self.pass_at(time)
-        flags, fps = self.contacts[name], self.clip.fps
-        frame = min(max(int(round(clip_time * fps)), 0), self.clip.num_frames - 1)
-        ahead = flags[frame:]
-        if ahead.any():
-            return int(np.argmax(ahead)) / fps
-        if self.loop and flags.any():
-            return (len(ahead) + int(np.argmax(flags[1:]))) / fps
-        return len(ahead) / fps
+        return self._frames_to_landing(self.contacts[name], self._frame(time)) / self.clip.fps
 
     # --- the centre of mass --------------------------------------------------------
 
@@ -293,13 +297,8 @@ class ClipPlan:
                 planted.append(tuple(sorted(feet_down)))  # (a clip's hand contacts are not footsteps)
                 poses = {name: plant.EvalBodyPoseInWorld(context, foot) for name, foot in self._feet.items()}
                 anchors.append({name: pose.multiply(self._anchor[name])[:2] for name, pose in poses.items()})
-                soles = [
-                    pose.multiply(
-                        (self._anchor[name] + (1.0 - SUPPORT_SHRINK) * (self._corners[name] - self._anchor[name])).T
-                    )[:2].T
-                    for name, pose in poses.items()
-                    if name in planted[-1]
-                ]
+                down = [name for name in poses if name in planted[-1]]
+                soles = [poses[name].multiply(self._support[name])[:2].T for name in down]
                 supports.append(np.vstack(soles) if soles else None)
         times, com = np.array(times), np.array(com)
         extra = times[-1] + np.arange(1, int(HOLD_AFTER * fps) + 1) / fps

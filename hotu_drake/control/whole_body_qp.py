@@ -115,8 +115,9 @@ class WholeBodyQp:
             for row, (axis, sign) in enumerate(((0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0))):
                 pyramid[4 * k + row, nv + 3 * k + axis] = sign
                 pyramid[4 * k + row, nv + 3 * k + 2] = -friction
-        self._fixed = np.vstack([pyramid, np.eye(n)[nv:]])
-        constraints = np.vstack([np.ones((self._rows, n)), self._fixed])
+        # The constraint matrix, dense: its first `_rows` rows set at each step, the rest fixed.
+        self._constraints = np.vstack([np.ones((self._rows, n)), pyramid, np.eye(n)[nv:]])
+        constraints = self._constraints
         hessian = np.zeros((n, n))
         hessian[:nv, :nv], hessian[nv:, nv:] = 1.0, np.eye(forces)
         self._a_pattern = _Pattern(constraints != 0.0)
@@ -168,7 +169,8 @@ class WholeBodyQp:
         # (M vdot + h - J' f): the generalized forces the actuators must supply, row by row.
         rows = np.hstack([mass, -jacobian.T])
         actuated = rows[self.actuated]
-        constraints = np.vstack([rows[self.floating], actuated, self._fixed])
+        constraints = self._constraints
+        constraints[: len(self.floating)], constraints[len(self.floating) : self._rows] = rows[self.floating], actuated
         down = np.array(
             [bool(planted.get(name)) for name, sole in self.soles.items() for _ in sole.corners], dtype=bool
         )
