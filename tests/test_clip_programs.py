@@ -55,7 +55,7 @@ def test_a_clip_program_step_is_the_minimiser_of_its_cost(monkeypatch, frames):
     q = 0.1 * rng.normal(size=(frames, k))
     program = ClipProgram(frames, 1e-3, 0.5, groups)
     limits = -np.full(k, 3.0), np.full(k, 3.0)
-    assert len(program._groups) == 2
+    assert len(program.columns) == 2
     step = program.step(hessians, gradients, q, *limits)
     expected = _dense_step(hessians, gradients, q, 1e-3, 0.5)
     assert not program.failed and np.max(np.abs(expected)) > 0.01  # a step worth checking

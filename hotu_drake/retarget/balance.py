@@ -31,7 +31,7 @@ import scipy.sparse as sp
 
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.retarget.contacts import Soles
-from hotu_drake.retarget.tree import Pose, Tree
+from hotu_drake.retarget.tree import Pose, Tree, cross
 
 GRAVITY = 9.81
 SMOOTHING = 0.1  # s: the centre of mass and momentum are averaged over this before being differentiated
@@ -62,7 +62,7 @@ class ClipBalance:
         com = np.einsum("l,tli->ti", self.masses, centers) / self.mass
         velocity = np.gradient(centers, dt, axis=0)
         omega = _angular_velocity(poses.rotations, dt)  # (T, L, 3)
-        momentum = np.einsum("l,tli->ti", self.masses, np.cross(centers - com[:, None], velocity))
+        momentum = np.einsum("l,tli->ti", self.masses, cross(centers - com[:, None], velocity))
         # Each link's R I R' omega, as vectors (no (T, L, 3, 3) products).
         local = np.einsum("tlji,tlj->tli", poses.rotations, omega)
         momentum += np.einsum("tlij,tlj->ti", poses.rotations, np.einsum("lij,tlj->tli", self.inertias, local))

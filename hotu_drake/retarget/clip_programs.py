@@ -9,9 +9,10 @@ once. The step dq of the level's joints minimises
     sum_t [ sum_k w_tk |J_tk dq_t - e_tk|^2 + reg |dq_t|^2 ]
       + smooth sum_t |(q + dq)_{t+1} - (q + dq)_t|^2
 
-within the joint limits and a trust region: one Drake `MathematicalProgram`
-per level (levels of one shape share one), built once per clip and solved
-by OSQP, whose cost coefficients and bounds are set at each
+within the joint limits and a trust region: one OSQP workspace per level
+(levels of one shape share one; the `osqp` package, as the whole-body
+controller's QP: Drake's `OsqpSolver` would set OSQP up again at every
+solve), set up once per clip, its values and bounds updated at each
 relinearisation (sequential convex programming). Forward kinematics and Jacobians of all frames are one
 vectorised pass (`Tree.forward_frames`, `Landmarks.*_frames`); the targets
 and parts are the streaming path's own.
@@ -44,8 +45,10 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
-from pydrake.solvers import MathematicalProgram, OsqpSolver, SolverOptions
+import osqp
+import scipy.sparse as sparse
 
+from hotu_drake.control.whole_body_qp import SOLVED
 from hotu_drake.embodiment.spec import SIDES
 from hotu_drake.motion.synthesis import smooth
 from hotu_drake.retarget.balance import MOST_MOVED, balancing_shift, inside_share, shifted_pressure
@@ -84,53 +87,55 @@ HEIGHT_SMOOTHING = 0.02
 
 
 class ClipProgram:
-    """The QP of K joint columns over all frames; which joints, and their
-    limits, come with each step, so levels of one shape can share it.
+    """The QP of K joint columns over all frames on one OSQP workspace; which
+    joints, and their limits, come with each step, so levels of one shape
+    can share it.
 
-    Variables: dq (T, K). The costs come in blocks of `BLOCK` frames: each
-    block's quadratic cost holds its frames' targets and their smoothness
-    coupling to the next frame (the first of the next block), so the
-    program's Hessian is block tridiagonal in time. Joints that no target
-    couples (two parts, two fingers) can be kept in separate `groups` of
-    columns, each with its own costs, so the dense blocks stay small.
+    Variables: dq (T, K), frame by frame. The Hessian's pattern is fixed:
+    each frame's dense block per group of columns (its targets, the
+    regularisation and the smoothness' diagonal) and each column's coupling
+    to the next frame (the smoothness). Joints that no target couples (two
+    parts, two fingers) can be kept in separate `groups` of columns, so the
+    dense blocks stay small. OSQP is set up (and its ordering found) at the
+    first step; later steps update its values, gradient and bounds and
+    start it cold, as a fresh solve would.
     """
 
-    BLOCK = 4
     GROUP = 8  # independent groups of columns are merged up to this many (a leg of 7 joints stays apart)
+    # A relinearised step needs no more accuracy than this; with rho 0.2 (OSQP's default 0.1) the robots'
+    # programs took 17-44% fewer iterations on CMU 01_01.
+    SETTINGS = {
+        "verbose": False,
+        "polishing": False,
+        "eps_abs": 1e-3,
+        "eps_rel": 1e-3,
+        "check_termination": 10,
+        "rho": 0.2,
+    }
 
     def __init__(self, frames: int, regularization: float, smoothness: float, groups: list[int]):
         self.regularization, self.smoothness = regularization, smoothness
         self.failed = False  # whether the last step's solve failed
-        k = sum(groups)
-        self.program = MathematicalProgram()
-        # dq (T, K) in the program's order, column by column (as a matrix of variables would be).
-        self.dq = self.program.NewContinuousVariables(frames * k, "dq").reshape(k, frames).T
-        # Blocks whose cost reaches into the next frame, and the last one (which cannot).
-        starts = np.arange(0, frames, self.BLOCK)
-        self._linked = starts[starts + self.BLOCK < frames]
-        self._tail = int(self._linked[-1] + self.BLOCK) if len(self._linked) else 0
-        # Per group of columns: its blocks' variables, their costs (added at
-        # the first step, with its coefficients) and the Hessians' layouts.
-        self._groups = []
-        for columns in self.merge(groups):
-            blocks = [
-                self.dq[start : min(start + self.BLOCK + 1, frames), columns].reshape(-1)
-                for start in (*self._linked, self._tail)
-            ]
-            width = columns.stop - columns.start
-            linked = self._layout(len(self._linked), self.BLOCK, True, width)
-            tail = self._layout(1, frames - self._tail, False, width)
-            self._groups.append((columns, blocks, [], linked, tail))
-        self._bounds = self.program.AddBoundingBoxConstraint(
-            -np.ones(frames * k), np.ones(frames * k), self.dq.reshape(-1)
-        )
-        self._solver = OsqpSolver()
-        self._options = SolverOptions()
-        # A relinearised step needs no more accuracy than this; with rho 0.2
-        # (OSQP's default 0.1) the robots' programs took 17-44% fewer iterations on CMU 01_01.
-        settings = {"verbose": 0, "polishing": 0, "eps_abs": 1e-3, "eps_rel": 1e-3, "check_termination": 10, "rho": 0.2}
-        for option, value in settings.items():
-            self._options.SetOption(self._solver.solver_id(), option, value)
+        self.frames, self.k = frames, sum(groups)
+        k = self.k
+        self.columns = self.merge(groups)
+        index = np.arange(frames * k).reshape(frames, k)  # dq[t, c] is variable t k + c
+        rows, cols, self._upper = [], [], []
+        for columns in self.columns:
+            i, j = np.triu_indices(columns.stop - columns.start)
+            self._upper.append((columns.start + i, columns.start + j))
+            rows.append(index[:, columns.start + i].reshape(-1))
+            cols.append(index[:, columns.start + j].reshape(-1))
+        rows.append(index[:-1].reshape(-1))  # each column's smoothness coupling to the next frame
+        cols.append(index[1:].reshape(-1))
+        rows, cols = np.concatenate(rows), np.concatenate(cols)
+        self._order = np.lexsort((rows, cols))  # compressed sparse columns: by column, then row
+        self._indices = rows[self._order]
+        self._pointers = np.r_[0, np.cumsum(np.bincount(cols, minlength=frames * k))]
+        # How many of the smoothness' pairs (t, t + 1) each frame is in, and their coupling's constant values.
+        self._pairs = np.minimum(np.minimum(np.arange(frames), np.arange(frames)[::-1]), 1) + (frames > 1)
+        self._coupling = np.full((frames - 1) * k, -2.0 * smoothness)
+        self._solver: osqp.OSQP | None = None
 
     @classmethod
     def merge(cls, sizes: list[int]) -> list[slice]:
@@ -144,39 +149,15 @@ class ClipProgram:
         out.append(slice(start, start + width))
         return out
 
-    def _layout(self, count: int, own: int, linked: bool, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """Hessians (count, size, k, size, k) of `count` blocks of `own` frames
-        (with or without the next frame) holding the smoothness coupling,
-        which never changes, and the diagonal it adds to each frame (size, k, k)."""
-        s = self.smoothness
-        size = own + linked
-        matrices = np.zeros((count, size, k, size, k))
-        diagonal = np.zeros((size, k, k))
-        for i in range(own if linked else own - 1):  # frames i and i + 1: s |dq_i+1 - dq_i + c_i|^2
-            diagonal[i] += s * np.eye(k)
-            diagonal[i + 1] += s * np.eye(k)
-            matrices[:, i, :, i + 1, :] = -2.0 * s * np.eye(k)
-            matrices[:, i + 1, :, i, :] = -2.0 * s * np.eye(k)
-        return matrices, diagonal
-
-    def _blocks(self, layout, starts: np.ndarray, own: int, linked: bool, hessian, gradient, change):
-        """Costs (x' Q x / 2 + b' x) of blocks of `own` frames from `starts`,
-        with (`linked`) or without the next frame; only the diagonal of the
-        preallocated Hessians is written."""
-        matrices, diagonal = layout
-        k, s = hessian.shape[-1], self.smoothness
-        size = own + linked
-        vectors = np.zeros((len(starts), size, k))
-        for i in range(size):
-            if i < own:
-                matrices[:, i, :, i, :] = 2.0 * (hessian[starts + i] + diagonal[i])
-                vectors[:, i] += gradient[starts + i]
-            else:
-                matrices[:, i, :, i, :] = 2.0 * diagonal[i]
-        for i in range(own if linked else own - 1):
-            vectors[:, i] -= s * change[starts + i]
-            vectors[:, i + 1] += s * change[starts + i]
-        return matrices.reshape(len(starts), size * k, size * k), 2.0 * vectors.reshape(len(starts), size * k)
+    def _hessian_values(self, hessian: np.ndarray) -> np.ndarray:
+        """The Hessian's entries in the pattern's order, from the frames' target Hessians (T, K, K)."""
+        diagonal = self.regularization + self.smoothness * self._pairs  # (T,)
+        values = []
+        for i, j in self._upper:
+            block = hessian[:, i, j] + np.where(i == j, diagonal[:, None], 0.0)
+            values.append(2.0 * block.reshape(-1))
+        values.append(self._coupling)
+        return np.concatenate(values)[self._order]
 
     def step(
         self, hessian: np.ndarray, gradient: np.ndarray, q: np.ndarray, lower: np.ndarray, upper: np.ndarray
@@ -185,31 +166,34 @@ class ClipProgram:
         (`hessian` (T, K, K), `gradient` (T, K)), plus the regularisation and
         the smoothness of q + dq, within the joint limits (`lower`, `upper`
         (K,)) and the trust region; `q` (T, K) is the current configuration."""
-        frames, k = q.shape
-        change = q[1:] - q[:-1]  # the smoothness term's constant: q_t+1 - q_t
-        tail = np.array([self._tail])
-        for columns, variables, costs, linked, last in self._groups:
-            width = columns.stop - columns.start
-            own = hessian[:, columns, columns] + self.regularization * np.eye(width)
-            terms = (own, gradient[:, columns], change[:, columns])
-            blocks = (
-                list(zip(*self._blocks(linked, self._linked, self.BLOCK, True, *terms))) if len(self._linked) else []
-            )
-            blocks += zip(*self._blocks(last, tail, frames - self._tail, False, *terms))
-            if costs:
-                for cost, (matrix, vector) in zip(costs, blocks):
-                    cost.evaluator().UpdateCoefficients(matrix, vector, 0.0, True)
-            else:
-                costs += [self.program.AddQuadraticCost(m, v, x, True) for x, (m, v) in zip(variables, blocks)]
+        s = self.smoothness
+        change = q[1:] - q[:-1]  # the smoothness term s |dq_t+1 - dq_t + (q_t+1 - q_t)|^2
+        linear = 2.0 * gradient
+        linear[:-1] -= 2.0 * s * change
+        linear[1:] += 2.0 * s * change
         low = np.minimum(np.maximum(lower - q, -TRUST_REGION), 0.0)
         high = np.maximum(np.minimum(upper - q, TRUST_REGION), 0.0)
-        self._bounds.evaluator().set_bounds(low.reshape(-1), high.reshape(-1))
-        result = self._solver.Solve(self.program, None, self._options)
-        self.failed = not result.is_success()
+        values = self._hessian_values(hessian)
+        n = self.frames * self.k
+        if self._solver is None:
+            self._solver = osqp.OSQP()
+            matrix = sparse.csc_matrix((values, self._indices, self._pointers), shape=(n, n))
+            self._solver.setup(
+                matrix,
+                linear.reshape(-1),
+                sparse.identity(n, format="csc"),
+                low.reshape(-1),
+                high.reshape(-1),
+                **self.SETTINGS,
+            )
+        else:
+            self._solver.update(Px=values, q=linear.reshape(-1), l=low.reshape(-1), u=high.reshape(-1))
+            self._solver.warm_start(x=np.zeros(n), y=np.zeros(n))
+        result = self._solver.solve(raise_error=False)
+        self.failed = result.info.status_val not in SOLVED
         if self.failed:  # no step this time; the caller does not count the level as settled
             return np.zeros_like(q)
-        # dq is the program's only variable, stored column by column.
-        return np.clip(result.get_x_val().reshape(k, frames).T, low, high)
+        return np.clip(result.x.reshape(self.frames, self.k), low, high)
 
 
 def normal_equations(rows: list) -> tuple[np.ndarray, np.ndarray]:

@@ -83,7 +83,7 @@ class Landmarks:
         points = poses.positions[:, link] + poses.rotations[:, link] @ offset
         index, revolute, prismatic = self._masks(link, joints)
         axes = poses.joint_axes[:, index]  # (T, k, 3)
-        turned = np.cross(axes, points[:, None, :] - poses.joint_positions[:, index])
+        turned = cross(axes, points[:, None, :] - poses.joint_positions[:, index])
         return points, np.swapaxes(turned * revolute + axes * prismatic, 1, 2)
 
     def rotation_jacobian_frames(self, link: int, poses: Pose, joints: list[int]) -> np.ndarray:
@@ -217,7 +217,7 @@ class BendPlane:
         jacobian = np.zeros((len(axis), 3, len(joints)))
         for col, j in enumerate(joints):
             if j in ancestors and marks.tree._revolute[j]:
-                jacobian[:, :, col] = np.cross(poses.joint_axes[:, j], axis)
+                jacobian[:, :, col] = cross(poses.joint_axes[:, j], axis)
         normal, bend = _normalize_frames(targets)
         return jacobian, self.sign * normal - axis, self.weight * np.minimum(1.0, bend / 0.3)
 
