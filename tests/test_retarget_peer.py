@@ -27,10 +27,10 @@ def test_mink_peer_retargets_the_walk_onto_h1():
     assert row["mean_position_error_m"] < 0.1
 
 
-def test_end_to_end_adds_the_udh_stage_to_each_robot():
+def test_end_to_end_adds_the_bridging_udh_stage_to_each_robot():
     rows = [
-        {"robot": "udh", "hands": "none", "frames": 100, "seconds": 0.5},
-        {"robot": "h1", "hands": "none", "frames": 100, "seconds": 1.5},
+        {"robot": "udh", "hands": "none", "frames": 100, "seconds": 0.5, "bridge_seconds": 0.0},
+        {"robot": "h1", "hands": "none", "frames": 100, "seconds": 1.5, "bridge_seconds": 0.5},
     ]
     assert end_to_end_frames_per_second(rows) == {("udh", "none"): 200.0, ("h1", "none"): 50.0}
 

@@ -100,24 +100,27 @@ def _retarget(args) -> int:
 
 
 def _alternating_pairs(source, variants: tuple[str, ...], count: int) -> dict:
-    """Per robot and hands: `count` runs of ours (human -> UDH -> robot) each
-    followed by one of the peer; frames/s of each and the median ratio."""
+    """Per robot and hands: `count` runs of ours (human -> UDH -> robot, as
+    `pipeline.retarget_onto` does it) each followed by one of the peer;
+    frames/s of each and the median ratio. Model set-up is not timed on
+    either side (`Stage.setup_seconds`: ours, reported apart)."""
     import statistics
 
     from hotu_drake.bench import mink_peer
-    from hotu_drake.retarget.pipeline import ROBOTS, to_robot, to_udh
+    from hotu_drake.retarget.pipeline import ROBOTS, retarget_onto
 
     out: dict = {}
     for hands in variants:
         for robot in ("udh", *ROBOTS):
-            ours, peer = [], []
+            ours, peer, setup = [], [], []
             for _ in range(count):
-                udh = to_udh(source, hands)
-                seconds = udh.seconds + (to_robot(udh.clip, robot, hands).seconds if robot != "udh" else 0.0)
-                ours.append(round(source.num_frames / seconds, 1))
+                stages = retarget_onto(source, [robot], hands)
+                ours.append(round(source.num_frames / sum(stage.seconds for stage in stages.values()), 1))
+                setup.append(round(sum(stage.setup_seconds for stage in stages.values()), 4))
                 peer.append(mink_peer.mink_throughput(source, robot, hands)["frames_per_second"])
             ratios = [a / b for a, b in zip(ours, peer)]
             row = {"ours": ours, "peer": peer, "median_speedup": round(statistics.median(ratios), 3)}
+            row["setup_seconds"] = setup
             print(json.dumps({"pairs": robot, "hands": hands, **row}), file=sys.stderr, flush=True)
             out.setdefault(robot, {})[hands] = row
     return out
@@ -337,19 +340,19 @@ def _performs(args) -> int:
     from hotu_drake.bench.performs import markdown as performs_markdown
     from hotu_drake.motion.library import MOTIONS
     from hotu_drake.motion.load import load_motion
-    from hotu_drake.retarget.pipeline import library_clip, to_robot, to_udh
+    from hotu_drake.retarget.pipeline import library_clip, retarget_onto
 
     for robot in args.robots:
         check_choice(robot, "--robots", embodiment.EMBODIMENT_NAMES)
     for motion in args.motions:
         check_choice(motion, "--motions", MOTIONS)
     check_number(args.seeds, "--seeds", low=0, high=100, integer=True)
-    captures = {Path(path).stem: to_udh(load_motion(path), "none").clip for path in args.input}
+    captures = {Path(path).stem: retarget_onto(load_motion(path), args.robots, "none") for path in args.input}
     pin_to_one_core()
     rows = []
     for robot in args.robots:
         clips = {motion: library_clip(motion, robot, "none") for motion in args.motions}
-        clips |= {stem: udh if robot == "udh" else to_robot(udh, robot, "none").clip for stem, udh in captures.items()}
+        clips |= {stem: stages[robot].clip for stem, stages in captures.items()}
         for motion, clip in clips.items():
             rows.append(perform_row(robot, motion, clip))
             print(json.dumps(rows[-1]), file=sys.stderr, flush=True)

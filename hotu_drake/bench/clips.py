@@ -10,7 +10,7 @@ from hotu_drake import embodiment
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.library.steering import VOCABULARY
 from hotu_drake.retarget.metrics import report
-from hotu_drake.retarget.pipeline import to_robot, to_udh
+from hotu_drake.retarget.pipeline import retarget_onto
 
 LEGGED = ("udh", "h1", "naviai", "walker", "bruce")
 # The library's motions the acceptance names: walk, squat, the box carry and the steering vocabulary.
@@ -30,11 +30,11 @@ def source(name: str) -> MotionClip:
 
 def clip_rows(name: str, clip: MotionClip, robots: tuple[str, ...] = LEGGED) -> list[dict]:
     """One row per embodiment: the clip retargeted (human -> UDH -> robot,
-    no fingers) and its report's stance, legs, balance and torque figures."""
-    udh = to_udh(clip, "none")
+    no fingers; `pipeline.retarget_onto`) and its report's stance, legs, balance and torque figures."""
+    stages = retarget_onto(clip, robots, "none")
     rows = []
     for robot in robots:
-        stage = udh if robot == "udh" else to_robot(udh.clip, robot, "none")
+        stage = stages[robot]
         figures = report(clip, stage.clip, embodiment.load(robot, "none"), stage.seconds, stage.margins)
         margin = figures.get("centre_of_pressure_margin", {})
         torques = figures.get("torque_over_limit", {})

@@ -5,7 +5,7 @@ from pathlib import Path
 from hotu_drake import embodiment
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.retarget.metrics import report
-from hotu_drake.retarget.pipeline import ROBOTS, to_robot, to_udh
+from hotu_drake.retarget.pipeline import ROBOTS, retarget_onto
 from hotu_drake.retarget.retargeter import RetargetOptions
 
 
@@ -34,18 +34,17 @@ def retarget_throughput(
     robots: tuple[str, ...] = ("udh", *ROBOTS),
     options: RetargetOptions | None = None,
 ) -> list[dict]:
-    """Frames per second of each stage (human -> UDH, then UDH -> each robot),
-    after a warm-up on the clip's first quarter second, with the report's
-    quality figures; `options` picks the solve (default: whole clip)."""
+    """Frames per second of each stage (human -> UDH, and each robot through
+    the UDH clip that bridges to it, `pipeline.retarget_onto`), after a
+    warm-up on the clip's first quarter second, with the report's quality
+    figures; `options` picks the solve (default: whole clip). Each robot's
+    row has the bridge's seconds too, and the set-up's apart."""
     warm_up = source.slice(0, min(source.num_frames, int(0.25 * source.fps) + 2))
-    to_robot(to_udh(warm_up, hands, options).clip, robots[-1], hands, options)
-    udh = to_udh(source, hands, options)
-    stages = {"udh": udh}
-    for robot in robots:
-        if robot != "udh":
-            stages[robot] = to_robot(udh.clip, robot, hands, options)
+    retarget_onto(warm_up, robots[-1:], hands, options)
+    stages = retarget_onto(source, robots, hands, options)
     rows = []
-    for robot, stage in stages.items():
+    for robot in robots:
+        stage = stages[robot]
         figures = report(source, stage.clip, embodiment.load(robot, hands), stage.seconds)
         rows.append(
             {
@@ -53,6 +52,8 @@ def retarget_throughput(
                 "hands": hands,
                 "frames": figures["frames"],
                 "seconds": round(stage.seconds, 6),
+                "bridge_seconds": round(stages["bridge"].seconds, 6) if robot != "udh" else 0.0,
+                "setup_seconds": round(stage.setup_seconds, 6),
                 "frames_per_second": figures["frames_per_second"],
                 "joint_limit_violations": figures["joint_limit_violations"],
                 "foot_skate_m_per_s": figures["foot_skate_m_per_s"],
@@ -69,10 +70,9 @@ def retarget_throughput(
 
 def end_to_end_frames_per_second(rows: list[dict]) -> dict[tuple[str, str], float | None]:
     """(robot, hands) -> human -> robot frames per second of `retarget_throughput`
-    rows: the UDH stage's seconds plus the robot's own (the UDH's alone for `udh`)."""
-    udh = {row["hands"]: row["seconds"] for row in rows if row["robot"] == "udh"}
+    rows: the robot's stage seconds plus its bridge's (the UDH's own alone for `udh`)."""
     out = {}
     for row in rows:
-        seconds = udh[row["hands"]] + (row["seconds"] if row["robot"] != "udh" else 0.0)
+        seconds = row["seconds"] + row.get("bridge_seconds", 0.0)
         out[row["robot"], row["hands"]] = round(row["frames"] / seconds, 1) if seconds > 0 else None
     return out

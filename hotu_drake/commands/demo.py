@@ -24,7 +24,7 @@ from hotu_drake.errors import InputError
 from hotu_drake.gallery import write_gallery
 from hotu_drake.models import dof_table, format_table
 from hotu_drake.motion.library import generate
-from hotu_drake.retarget.pipeline import ROBOTS, to_robot, to_udh
+from hotu_drake.retarget.pipeline import ROBOTS, retarget_onto, to_udh
 from hotu_drake.retarget.replay import write_replay
 
 DEMO_MOTIONS = ("walk", "box_carry")
@@ -52,8 +52,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"wrote {gallery} (open it in a browser)")
     for motion in DEMO_MOTIONS:
         source = generate(motion)
-        udh = to_udh(source, "full")
-        clips = [udh.clip] + [to_robot(udh.clip, robot, "none").clip for robot in ROBOTS]
+        robots = retarget_onto(source, ROBOTS, "none")
+        clips = [to_udh(source, "full").clip] + [robots[robot].clip for robot in ROBOTS]
         for clip in clips:
             clip.save(out / "clips" / f"{motion}_{clip.embodiment}.npz")
         replay = write_replay(out / f"{motion}.html", clips, source)

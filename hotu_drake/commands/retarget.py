@@ -19,6 +19,7 @@ DIR/<clip>_<robot>_physical.npz, its figures under "physics" in the
 report, and the performed robots beside the others in the replay.
 """
 
+import functools
 import json
 import sys
 import time
@@ -30,7 +31,7 @@ from hotu_drake.errors import InputError
 from hotu_drake.io import check_output_path, write_text_atomic
 from hotu_drake.motion.load import load_motion
 from hotu_drake.retarget.metrics import report
-from hotu_drake.retarget.pipeline import ROBOTS, has_fingers, to_robot, to_udh
+from hotu_drake.retarget.pipeline import ROBOTS, has_fingers, retarget_onto
 from hotu_drake.rotations import signed_axis
 
 TARGETS = ("udh", *ROBOTS)
@@ -157,13 +158,10 @@ def main(argv: list[str] | None = None) -> int:
             failures.append(str(error))
             progress.done += 1 + len([r for r in robots if r != "udh"]) + physical
             continue
-        udh = to_udh(source, args.hands)
-        progress.step(f"{stem} -> udh")
-        results = {"udh": udh}
-        for robot in robots:
-            if robot != "udh":
-                results[robot] = to_robot(udh.clip, robot, args.hands)
-                progress.step(f"{stem} -> {robot}")
+        # The UDH's own clip is in every replay, asked for or not.
+        everyone = ["udh", *(robot for robot in robots if robot != "udh")]
+        done = functools.partial(_step_done, progress, stem)
+        results = retarget_onto(source, everyone, args.hands, done=done)
         performed = {}
         if args.physics:
             from hotu_drake.physical import perform
@@ -186,6 +184,10 @@ def main(argv: list[str] | None = None) -> int:
     written = len(replays) * len(robots) + sum(len(performed) for *_, performed in replays)
     print(f"retargeted {len(replays)} clip(s) onto {', '.join(robots)}: {written} file(s) in {out}", file=sys.stderr)
     return 2 if failures else 0
+
+
+def _step_done(progress: Progress, stem: str, robot: str) -> None:
+    progress.step(f"{stem} -> {robot}")
 
 
 def _write(args, out: Path, robots: list[str], figures: dict, failures: list[str], replays: list) -> None:

@@ -176,7 +176,7 @@ class ClipProgram:
         values = self._hessian_values(hessian)
         n = self.frames * self.k
         if self._solver is None:
-            self._solver = osqp.OSQP()
+            self._solver = osqp.OSQP(algebra="builtin")  # (not looked up again at each set-up)
             matrix = sparse.csc_matrix((values, self._indices, self._pointers), shape=(n, n))
             self._solver.setup(
                 matrix,
@@ -548,7 +548,7 @@ def balance(
     com, pressure = dynamics.centroidal(poses, fps)
     margins = {"before": support.margin(pressure)}
     ankles = solver.ankles(solver._poses(q, rotations, positions))
-    carried = 1.0  # how far the centre of mass moves with the body: the feet stay, the legs follow in part
+    carried = dynamics.carried  # how far the centre of mass moves with the body: the feet stay, the legs lean
     total = np.zeros((len(q), 2))
     for index in range(BALANCE_ROUNDS):
         share = inside_share(support.margin(pressure))
