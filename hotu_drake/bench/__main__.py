@@ -114,9 +114,9 @@ def _alternating_pairs(source, variants: tuple[str, ...], count: int) -> dict:
         for robot in ("udh", *ROBOTS):
             ours, peer, setup = [], [], []
             for _ in range(count):
-                stages = retarget_onto(source, [robot], hands)
-                ours.append(round(source.num_frames / sum(stage.seconds for stage in stages.values()), 1))
-                setup.append(round(sum(stage.setup_seconds for stage in stages.values()), 4))
+                stage = retarget_onto(source, [robot], hands)[robot]
+                ours.append(round(source.num_frames / stage.total_seconds, 1))
+                setup.append(round(stage.total_setup_seconds, 4))
                 peer.append(mink_peer.mink_throughput(source, robot, hands)["frames_per_second"])
             ratios = [a / b for a, b in zip(ours, peer)]
             row = {"ours": ours, "peer": peer, "median_speedup": round(statistics.median(ratios), 3)}

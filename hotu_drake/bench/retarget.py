@@ -38,7 +38,8 @@ def retarget_throughput(
     the UDH clip that bridges to it, `pipeline.retarget_onto`), after a
     warm-up on the clip's first quarter second, with the report's quality
     figures; `options` picks the solve (default: whole clip). Each robot's
-    row has the bridge's seconds too, and the set-up's apart."""
+    row has its bridge's seconds too, and the set-up's (the robot's and its
+    bridge's) apart."""
     warm_up = source.slice(0, min(source.num_frames, int(0.25 * source.fps) + 2))
     retarget_onto(warm_up, robots[-1:], hands, options)
     stages = retarget_onto(source, robots, hands, options)
@@ -52,8 +53,8 @@ def retarget_throughput(
                 "hands": hands,
                 "frames": figures["frames"],
                 "seconds": round(stage.seconds, 6),
-                "bridge_seconds": round(stages["bridge"].seconds, 6) if robot != "udh" else 0.0,
-                "setup_seconds": round(stage.setup_seconds, 6),
+                "bridge_seconds": round(stage.bridge.seconds, 6) if stage.bridge else 0.0,
+                "setup_seconds": round(stage.total_setup_seconds, 6),
                 "frames_per_second": figures["frames_per_second"],
                 "joint_limit_violations": figures["joint_limit_violations"],
                 "foot_skate_m_per_s": figures["foot_skate_m_per_s"],

@@ -139,7 +139,9 @@ def main(argv: list[str] | None = None) -> int:
             raise InputError(f"--up: {error}") from None
     show_notes()
     physical = len(robots) if args.physics else 0
-    progress = Progress(len(args.inputs) * (1 + len([r for r in robots if r != "udh"]) + physical))
+    # The UDH's own clip where asked for, and in every replay beside the robots.
+    solved = [*(["udh"] if "udh" in robots or args.html else []), *(r for r in robots if r != "udh")]
+    progress = Progress(len(args.inputs) * (len(solved) + physical))
     figures: dict[str, dict] = {}
     failures: list[str] = []
     replays = []
@@ -156,12 +158,10 @@ def main(argv: list[str] | None = None) -> int:
         except InputError as error:  # a bad input is skipped; the others are still retargeted
             print(f"error: {error}", file=sys.stderr)
             failures.append(str(error))
-            progress.done += 1 + len([r for r in robots if r != "udh"]) + physical
+            progress.done += len(solved) + physical
             continue
-        # The UDH's own clip is in every replay, asked for or not.
-        everyone = ["udh", *(robot for robot in robots if robot != "udh")]
         done = functools.partial(_step_done, progress, stem)
-        results = retarget_onto(source, everyone, args.hands, done=done)
+        results = retarget_onto(source, solved, args.hands, done=done)
         performed = {}
         if args.physics:
             from hotu_drake.physical import perform

@@ -32,6 +32,16 @@ class Stage:
     seconds: float
     margins: dict = field(default_factory=dict)
     setup_seconds: float = 0.0
+    bridge: "Stage | None" = None  # a robot's: the UDH stage it was retargeted through (`retarget_onto`)
+
+    @property
+    def total_seconds(self) -> float:
+        """Human -> this embodiment: the stage's solve and its bridge's."""
+        return self.seconds + (self.bridge.seconds if self.bridge else 0.0)
+
+    @property
+    def total_setup_seconds(self) -> float:
+        return self.setup_seconds + (self.bridge.setup_seconds if self.bridge else 0.0)
 
 
 def to_udh(
@@ -96,9 +106,9 @@ def retarget_onto(
     UDH's own clip where asked for, and every robot's through one UDH clip
     that only bridges to them (`to_udh(..., bridge=True)`; its hands
     `bridge_hands`, by default `hands`, or none where no robot has fingers
-    to take from it), by name; the bridge's stage under "bridge" (a
-    robot's stage time is its own). `done` is told each robot's name as
-    its clip is ready."""
+    to take from it), by name; a robot's stage keeps the bridge's
+    (`Stage.bridge`). `done` is told each robot's name as its clip is
+    ready."""
     robots = list(robots)
     out = {}
     if "udh" in robots:
@@ -111,9 +121,8 @@ def retarget_onto(
             fingered = any(embodiment.load(robot, hands).finger_joints for robot in others)
             bridge_hands = hands if fingered else "none"
         bridge = to_udh(source, bridge_hands, options, bridge=True)
-        out["bridge"] = bridge
         for robot in others:
-            out[robot] = to_robot(bridge.clip, robot, hands, options)
+            out[robot] = replace(to_robot(bridge.clip, robot, hands, options), bridge=bridge)
             if done:
                 done(robot)
     return out
