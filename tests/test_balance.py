@@ -17,6 +17,7 @@ from hotu_drake.retarget.balance import (
     Support,
     TorqueDemand,
     balancing_shift,
+    clear_of_flight,
     second_rate_matrix,
     shifted_pressure,
     shortfall,
@@ -226,3 +227,24 @@ def test_a_support_s_margin_over_its_hull_edges_is_the_signed_distance():
         pressure = 0.3 * rng.normal(size=(40, 2))
         margin, expected = Support(points, down, 0.01).margin(pressure), signed_distances(points, down, pressure)
         np.testing.assert_allclose(margin, expected + 0.01, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("fps", [30.0, 120.0])
+def test_the_frames_clear_of_a_flight_are_those_whose_estimate_never_sees_it(fps):
+    """A frame is clear of a flight phase exactly when its centre-of-pressure
+    estimate (`smoothed_rate`) does not change with what the body does in the air."""
+    frames = int(3 * fps)
+    left, right = np.ones(frames, bool), np.ones(frames, bool)
+    air = slice(int(1.0 * fps), int(1.3 * fps))
+    left[air] = right[air] = False
+    right[int(2.0 * fps) : int(2.4 * fps)] = False  # one foot up is no flight
+    clear = clear_of_flight({"left": left, "right": right}, fps)
+    rng = np.random.default_rng(0)
+    values = rng.normal(size=frames)
+    moved = values.copy()
+    moved[air] += rng.normal(size=air.stop - air.start)
+    changed = np.abs(smoothed_rate(moved, fps, 2) - smoothed_rate(values, fps, 2)) > 1e-9
+    assert not changed[clear].any()  # clear frames never see the flight
+    assert changed[~clear].mean() > 0.8  # and the rest (but for a coincidence) do
+    assert clear[int(2.0 * fps) : int(2.4 * fps)].all()
+    assert clear_of_flight({"left": left | True, "right": right}, fps).all()

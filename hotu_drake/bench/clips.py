@@ -63,9 +63,9 @@ def markdown(rows: list[dict]) -> str:
     udh = {row["clip"]: row["stance_ratio"]["median"] for row in rows if row["robot"] == "udh"}
     lines = [
         "| clip | robot | stance median (least) | / UDH's | leg penetration | planted sole tilt (deg) "
-        "| CoP inside before | after "
+        "| CoP inside before | after | after, clear of flight "
         "| least margin after (m) | skate (m/s) | frames over a torque limit | joint most often over (share, most) |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for row in rows:
         stance, margin = row["stance_ratio"], row["centre_of_pressure_margin"]
@@ -79,7 +79,8 @@ def markdown(rows: list[dict]) -> str:
             f"| {100 * row['leg_penetration_m']:.1f} cm "
             f"| {row['planted_sole_tilt_deg']['median']} ({row['planted_sole_tilt_deg']['most']}) "
             f"| {before.get('inside_share', '-')} "
-            f"| {after.get('inside_share', '-')} | {after.get('least_m', '-')} | {row['foot_skate_m_per_s']} "
+            f"| {after.get('inside_share', '-')} | {after.get('inside_share_clear_of_flight', '-')} "
+            f"| {after.get('least_m', '-')} | {row['foot_skate_m_per_s']} "
             f"| {row['torque_over_limit_share']} | {joint} |"
         )
     return "\n".join(lines)

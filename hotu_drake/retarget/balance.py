@@ -203,6 +203,20 @@ def smoothed_rate(values: np.ndarray, fps: float, order: int) -> np.ndarray:
     return rate
 
 
+def clear_of_flight(contacts: dict[str, np.ndarray], fps: float) -> np.ndarray:
+    """Per frame (T,), whether the centroidal figures' window at it (the
+    average over `SMOOTHING`, then two central differences: `smoothed_rate`)
+    holds no frame without a foot down (a jump's flight, or a gap between a
+    capture's detected contacts): a centre of pressure estimated across one
+    mixes the body's fall through the air (or what the contacts miss) into
+    the push-off or landing beside it. All frames for a clip without contacts."""
+    if not contacts:
+        return np.ones(0, bool)
+    airborne = ~np.any(np.stack([np.asarray(flags, bool) for flags in contacts.values()]), axis=0)
+    reach = max(1, int(round(SMOOTHING * fps))) // 2 + 2
+    return np.convolve(airborne.astype(float), np.ones(2 * reach + 1), mode="same") == 0.0
+
+
 def moving_average(values: np.ndarray, window: int) -> np.ndarray:
     """A centred moving average over `window` frames (the ends averaged over what there is)."""
     if window <= 1:

@@ -14,7 +14,7 @@ from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import FINGER_POINTS, body_height, landmarks_of
 from hotu_drake.motion.udh_skeleton import points_on_clip
 from hotu_drake.retarget import frames
-from hotu_drake.retarget.balance import ClipBalance, TorqueDemand, inside_share
+from hotu_drake.retarget.balance import ClipBalance, TorqueDemand, clear_of_flight, inside_share
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
 from hotu_drake.retarget.neutral import calibrate
 from hotu_drake.retarget.retargeter import Retargeter, foot_contacts_of, whole_finger_points
@@ -80,7 +80,12 @@ def balance_figures(emb: embodiments.Embodiment, clip: MotionClip, contacts: dic
     dynamics = ClipBalance(emb)
     poses = dynamics.poses(clip.joint_positions, quat_to_matrix(clip.root_quaternion), clip.root_position)
     _, pressure = dynamics.centroidal(poses, clip.fps)
-    margin = {"after": _margin_figures(dynamics.support_margin(poses, pressure, contacts))}
+    margins = dynamics.support_margin(poses, pressure, contacts)
+    margin = {"after": _margin_figures(margins)}
+    if contacts:  # the share over the frames whose estimate does not straddle a flight phase (a jump's)
+        clear = margins[clear_of_flight(contacts, clip.fps)]
+        supported = clear[~np.isnan(clear)]
+        margin["after"]["inside_share_clear_of_flight"] = round(inside_share(supported), 4) if supported.size else None
     if before is not None:
         margin = {"before": _margin_figures(np.asarray(before))} | margin
     ratios = TorqueDemand(emb).ratios(clip, contacts)
