@@ -17,7 +17,7 @@ from hotu_drake.motion.marker_sets import udh_markers
 from hotu_drake.motion.udh_skeleton import udh_landmarks
 from hotu_drake.objects import BOX_SIZE
 from hotu_drake.retarget.metrics import report
-from hotu_drake.retarget.pipeline import ROBOTS, to_robot, to_udh
+from hotu_drake.retarget.pipeline import ROBOTS, retarget_onto, to_robot, to_udh
 from tests.clips import udh_test_clip
 from tests.conftest import SHARED
 
@@ -278,3 +278,41 @@ def test_a_human_clip_is_low_passed_with_each_hand_as_a_rigid_body():
             local = np.einsum("tji,tj->ti", raw[hand], noisy[name] - noisy[hand])
             again = np.einsum("tji,tj->ti", moved[hand], smoothed[name] - smoothed[hand])
             np.testing.assert_allclose(again, local, atol=1e-9)
+
+
+def test_robots_are_retargeted_through_a_udh_bridge_left_to_their_own_balance():
+    """`retarget_onto`: the UDH's own clip has its balance pass, the bridge to
+    the robots does not (each robot's pass balances its own body); a robot's
+    stage keeps its bridge, and a bridge to robots without fingers has none."""
+    source = generate("walk")
+    stages = retarget_onto(source, ["udh", "h1", "bruce"], "full")
+    bridge = stages["h1"].bridge
+    assert stages["udh"].bridge is None and bridge is stages["bruce"].bridge
+    assert stages["udh"].margins and not bridge.margins  # the pass ran on the UDH's own clip only
+    assert np.abs(stages["udh"].clip.root_position - bridge.clip.root_position).max() > 0.005
+    assert stages["h1"].margins  # and on each robot's
+    assert stages["h1"].total_seconds == pytest.approx(stages["h1"].seconds + bridge.seconds)
+    assert any(name.endswith("_index_0") for name in bridge.clip.joint_names)  # H1's hands take the fingers
+    alone = retarget_onto(source, ["bruce"], "full")
+    assert set(alone) == {"bruce"}
+    assert not any(name.endswith("_index_0") for name in alone["bruce"].bridge.clip.joint_names)
+
+
+def test_the_balance_pass_starts_from_the_share_the_robots_build_carries(monkeypatch):
+    """The first round shifts the body by what the centre of mass needs over
+    the share of the shift it follows (legs leaning about their ankles), so
+    BRUCE's 120 fps walk is balanced in one round (it took two from a share
+    of 1; the 30 fps walk still takes two)."""
+    from hotu_drake.retarget import clip_programs
+    from hotu_drake.retarget.balance import ClipBalance
+
+    shares = {name: ClipBalance(embodiment.load(name, "none")).carried for name in ("h1", "naviai", "bruce")}
+    assert all(0.8 < share < 0.95 for share in shares.values()), shares
+    rounds = []
+    real = clip_programs.balancing_shift
+    monkeypatch.setattr(clip_programs, "balancing_shift", lambda *a, **k: rounds.append(1) or real(*a, **k))
+    udh = to_udh(generate("walk", fps=120.0), "none", bridge=True).clip  # the benchmarks' walk
+    stage = to_robot(udh, "bruce", "none")
+    assert len(rounds) == 1
+    after = stage.margins["after"]
+    assert np.mean(after[~np.isnan(after)] >= 0.0) >= 0.98
