@@ -248,3 +248,5 @@ def test_the_frames_clear_of_a_flight_are_those_whose_estimate_never_sees_it(fps
     assert changed[~clear].mean() > 0.8  # and the rest (but for a coincidence) do
     assert clear[int(2.0 * fps) : int(2.4 * fps)].all()
     assert clear_of_flight({"left": left | True, "right": right}, fps).all()
+    short = clear_of_flight({"left": np.r_[True, False, False, True], "right": np.zeros(4, bool)}, fps)
+    assert short.shape == (4,) and not short.any()  # a clip shorter than the estimate's window

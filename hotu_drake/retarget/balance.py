@@ -214,7 +214,8 @@ def clear_of_flight(contacts: dict[str, np.ndarray], fps: float) -> np.ndarray:
         return np.ones(0, bool)
     airborne = ~np.any(np.stack([np.asarray(flags, bool) for flags in contacts.values()]), axis=0)
     reach = max(1, int(round(SMOOTHING * fps))) // 2 + 2
-    return np.convolve(airborne.astype(float), np.ones(2 * reach + 1), mode="same") == 0.0
+    near = np.convolve(airborne.astype(float), np.ones(2 * reach + 1))[reach : reach + len(airborne)]
+    return near == 0.0  # (a clip shorter than the window too)
 
 
 def moving_average(values: np.ndarray, window: int) -> np.ndarray:
