@@ -52,6 +52,39 @@ def test_the_qp_forces_lie_in_their_friction_pyramids_and_balance_the_dynamics(h
     np.testing.assert_allclose(generalized, actuation, atol=1e-3 * scale)
 
 
+def test_a_planted_sole_that_turns_is_braked(h1_squat_controller):
+    """A planted foot set turning about the vertical (the fall the UDH's
+    walk_backward took): the QP accelerates its corners against their
+    velocities, where without the slip damping it would only hold them."""
+    from hotu_drake.control import whole_body_qp
+
+    controller = h1_squat_controller
+    plant, context = controller._plant, controller._context
+    controller.plan.set_reference(context, 1.0)
+    x = plant.GetPositionsAndVelocities(context)
+    sole = controller.soles["left_foot"]
+    spin = np.zeros(plant.num_velocities())
+    spin[2] = 1.0  # the floating base's yaw rate: every body, both soles with it, turns at 1 rad/s
+    x[plant.num_positions() :] = spin
+    braking = []
+    for damping in (whole_body_qp.SLIP_DAMPING, 0.0):
+        whole_body_qp.SLIP_DAMPING, kept = damping, whole_body_qp.SLIP_DAMPING
+        try:
+            controller.qp.reset()
+            controller.act(x, 1.0)
+        finally:
+            whole_body_qp.SLIP_DAMPING = kept
+        plant.SetPositionsAndVelocities(context, x)
+        jacobian, bias = controller.qp.contact_jacobians(context)
+        corners = slice(0, 3 * len(sole.corners))  # the left sole's corners come first
+        velocity = (jacobian @ x[plant.num_positions() :])[corners]
+        acceleration = (jacobian @ controller.last.accelerations + bias)[corners]
+        braking.append(-float(velocity @ acceleration) / float(velocity @ velocity))
+    assert whole_body_qp.SLIP_DAMPING > 0.0
+    assert list(controller.soles)[0] == "left_foot"
+    assert braking[0] > 10.0 and braking[1] < 1.0  # measured: 20.0 against 0.09 (1/s)
+
+
 def test_the_controller_holds_a_standing_robot_through_a_push(tmp_path):
     """H1 standing under the controller takes a 2 kg cube at 4 m/s (8 kg m/s)
     in the back of its torso: its centre of mass is set moving, and it stays

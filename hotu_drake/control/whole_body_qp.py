@@ -34,6 +34,11 @@ CONTACT_WEIGHT = 1e3  # a planted corner's acceleration, against the tasks' (ord
 # torque limits are hard (with both hard, a clip that needs more torque than the robot has leaves no solution)
 FRICTION = 0.8  # a little under the floor's (1.0): the pyramid is inside the cone
 REGULARIZATION = 1e-4
+# 1/s: a planted corner's desired acceleration is this times its velocity, against it (zero at rest): a
+# sole that has started to slide or turn is stopped, not only kept from accelerating. At 20 (none before):
+# the UDH's walk_backward and Walker's leg_stretch stand (their planted foot had turned 0.8 rad about the
+# vertical), BRUCE falls in turn_in_place_right, H1 walks the looped walk from 1 of 6 starts (4 of 6).
+SLIP_DAMPING = 20.0
 FORCE_WEIGHT = 1e-6
 # OSQP's tolerances: with its workspace (and so its duals) kept from step to step, 1e-3 and polishing walk
 # as 1e-5 did (BENCHMARKS.md) in a quarter of the iterations.
@@ -187,7 +192,8 @@ class WholeBodyQp:
         hessian[:nv, :nv] += REGULARIZATION * np.eye(nv)
         hessian[nv:, nv:] += FORCE_WEIGHT * np.eye(n - nv)
         contact_weight = np.repeat(np.where(down, CONTACT_WEIGHT, 0.0), 3)
-        for task in [*tasks, Task(jacobian, bias, np.zeros(len(bias)), contact_weight)]:
+        slip = -SLIP_DAMPING * (jacobian @ plant.GetVelocities(context))  # a planted corner's, against its velocity
+        for task in [*tasks, Task(jacobian, bias, slip, contact_weight)]:
             weight = np.broadcast_to(np.asarray(task.weight, float), (len(task.target),))
             weighted = task.jacobian * weight[:, None]
             hessian[:nv, :nv] += weighted.T @ task.jacobian

@@ -5,7 +5,7 @@ At each control step the controller sets its own copy of the robot's
 (`control.whole_body_qp`): centre of mass along the clip's ZMP plan
 (`control.clip_plan`, with the plan's LQR feedback), pelvis and torso
 orientation, swing feet, the hands in a clip that handles an object, the
-clip's joint posture, the planted soles' corners held still, within
+clip's joint posture, the planted soles' corners held still (one that slides braked), within
 friction pyramids and torque limits. A robot on a wheeled base (CURI) has
 no balance to keep: its tasks are the body's, the hands' and the posture. It acts
 through the path a policy acts through: an action (normalised PD targets
