@@ -209,9 +209,8 @@ def clear_of_flight(contacts: dict[str, np.ndarray], fps: float) -> np.ndarray:
     holds no frame without a foot down (a jump's flight, or a gap between a
     capture's detected contacts): a centre of pressure estimated across one
     mixes the body's fall through the air (or what the contacts miss) into
-    the push-off or landing beside it. All frames for a clip without contacts."""
-    if not contacts:
-        return np.ones(0, bool)
+    the push-off or landing beside it. `contacts`: each foot's flags (T,),
+    one foot's at least."""
     airborne = ~np.any(np.stack([np.asarray(flags, bool) for flags in contacts.values()]), axis=0)
     reach = max(1, int(round(SMOOTHING * fps))) // 2 + 2
     near = np.convolve(airborne.astype(float), np.ones(2 * reach + 1))[reach : reach + len(airborne)]

@@ -117,8 +117,8 @@ class ClipProgram:
     def __init__(self, frames: int, regularization: float, smoothness: float, groups: list[int]):
         self.regularization, self.smoothness = regularization, smoothness
         self.failed = False  # whether the last step's solve failed
-        self.frames, self.k = frames, sum(groups)
-        k = self.k
+        k = sum(groups)
+        self.frames, self.k = frames, k
         self.columns = self.merge(groups)
         index = np.arange(frames * k).reshape(frames, k)  # dq[t, c] is variable t k + c
         rows, cols, self._upper = [], [], []
@@ -134,7 +134,9 @@ class ClipProgram:
         self._indices = rows[self._order]
         self._pointers = np.r_[0, np.cumsum(np.bincount(cols, minlength=frames * k))]
         # How many of the smoothness' pairs (t, t + 1) each frame is in, and their coupling's constant values.
-        self._pairs = np.minimum(np.minimum(np.arange(frames), np.arange(frames)[::-1]), 1) + (frames > 1)
+        self._pairs = np.zeros(frames)
+        self._pairs[:-1] += 1.0
+        self._pairs[1:] += 1.0
         self._coupling = np.full((frames - 1) * k, -2.0 * smoothness)
         self._solver: osqp.OSQP | None = None
 

@@ -83,9 +83,8 @@ def balance_figures(emb: embodiments.Embodiment, clip: MotionClip, contacts: dic
     margins = dynamics.support_margin(poses, pressure, contacts)
     margin = {"after": _margin_figures(margins)}
     if contacts:  # the share over the frames whose estimate does not straddle a flight phase (a jump's)
-        clear = margins[clear_of_flight(contacts, clip.fps)]
-        supported = clear[~np.isnan(clear)]
-        margin["after"]["inside_share_clear_of_flight"] = round(inside_share(supported), 4) if supported.size else None
+        share = inside_share(margins[clear_of_flight(contacts, clip.fps)])
+        margin["after"]["inside_share_clear_of_flight"] = None if share is None else round(share, 4)
     if before is not None:
         margin = {"before": _margin_figures(np.asarray(before))} | margin
     ratios = TorqueDemand(emb).ratios(clip, contacts)

@@ -118,7 +118,7 @@ def retarget_onto(
     others = [robot for robot in robots if robot != "udh"]
     if others:
         if bridge_hands is None:
-            fingered = any(embodiment.load(robot, hands).finger_joints for robot in others)
+            fingered = hands == "full" and any(embodiment.load(robot, hands).finger_joints for robot in others)
             bridge_hands = hands if fingered else "none"
         bridge = to_udh(source, bridge_hands, options, bridge=True)
         for robot in others:
