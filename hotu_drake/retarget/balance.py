@@ -36,7 +36,11 @@ from hotu_drake.retarget.targets import Landmarks
 from hotu_drake.retarget.tree import Pose, Tree, cross
 
 GRAVITY = 9.81
-SMOOTHING = 0.1  # s: the centre of mass and momentum are averaged over this before being differentiated
+# s: the centre of mass and momentum are averaged over about this before being differentiated, by a Gaussian
+# as spread as a box this wide (deviation SMOOTHING / sqrt(12), 29 ms) cut at three deviations. A box's side
+# lobes pass a capture's frame-to-frame jitter, which two differences amplify: on the Qualisys walk the robots'
+# centres of pressure jumped by 5-10 cm between frames, and 0.64-0.82 of them were inside (0.79-0.92 now).
+SMOOTHING = 0.1
 ON_FLOOR = 0.01  # m: a sole's contact point this close to the floor bears weight
 
 
@@ -195,9 +199,9 @@ def pendulum_height(com: np.ndarray, fps: float) -> np.ndarray:
 
 def smoothed_rate(values: np.ndarray, fps: float, order: int) -> np.ndarray:
     """The first or second time derivative (`order`) of `values` (T, ...)
-    averaged over `SMOOTHING` first: the centroidal figures' one way of
-    differentiating a clip."""
-    rate = moving_average(values, max(1, int(round(SMOOTHING * fps))))
+    averaged first (`smoothing_kernel`, about `SMOOTHING` wide): the
+    centroidal figures' one way of differentiating a clip."""
+    rate = weighted_average(values, smoothing_kernel(fps))
     for _ in range(order):
         rate = np.gradient(rate, 1.0 / fps, axis=0)
     return rate
@@ -205,26 +209,59 @@ def smoothed_rate(values: np.ndarray, fps: float, order: int) -> np.ndarray:
 
 def clear_of_flight(contacts: dict[str, np.ndarray], fps: float) -> np.ndarray:
     """Per frame (T,), whether the centroidal figures' window at it (the
-    average over `SMOOTHING`, then two central differences: `smoothed_rate`)
+    average over `smoothing_kernel`, then two central differences: `smoothed_rate`)
     holds no frame without a foot down (a jump's flight, or a gap between a
     capture's detected contacts): a centre of pressure estimated across one
     mixes the body's fall through the air (or what the contacts miss) into
     the push-off or landing beside it. `contacts`: each foot's flags (T,),
     one foot's at least."""
     airborne = ~np.any(np.stack([np.asarray(flags, bool) for flags in contacts.values()]), axis=0)
-    reach = max(1, int(round(SMOOTHING * fps))) // 2 + 2
+    reach = len(smoothing_kernel(fps)) // 2 + 2
     near = np.convolve(airborne.astype(float), np.ones(2 * reach + 1))[reach : reach + len(airborne)]
     return near == 0.0  # (a clip shorter than the window too)
 
 
-def moving_average(values: np.ndarray, window: int) -> np.ndarray:
-    """A centred moving average over `window` frames (the ends averaged over what there is)."""
-    if window <= 1:
+def smoothing_kernel(fps: float) -> np.ndarray:
+    """The centroidal figures' averaging weights over frames at `fps`:
+    a Gaussian of deviation `SMOOTHING` / sqrt(12), cut at three
+    deviations (odd in length, centred), summing to 1."""
+    deviation = SMOOTHING / np.sqrt(12.0) * fps
+    reach = int(np.ceil(3.0 * deviation))
+    weights = np.exp(-0.5 * (np.arange(-reach, reach + 1) / max(deviation, 1e-9)) ** 2)
+    return weights / weights.sum()
+
+
+def weighted_average(values: np.ndarray, kernel: np.ndarray) -> np.ndarray:
+    """`values` (T, ...) averaged over frames with the centred `kernel`,
+    continued past the clip's ends as they were going (`_continued`)."""
+    reach = len(kernel) // 2
+    if not reach:
         return values
-    kernel = np.ones(window)
-    padded = np.concatenate([np.repeat(values[:1], window, axis=0), values, np.repeat(values[-1:], window, axis=0)])
-    summed = np.apply_along_axis(lambda column: np.convolve(column, kernel, mode="same"), 0, padded)
-    return summed[window:-window] / window
+    frames = len(values)
+    padded = (_continued(frames, reach) @ values.reshape(frames, -1)).reshape((frames + 2 * reach, *values.shape[1:]))
+    out = np.zeros(values.shape)
+    for k, weight in enumerate(kernel):
+        out += weight * padded[k : k + frames]
+    return out
+
+
+def _continued(frames: int, reach: int) -> sp.csr_matrix:
+    """The (T + 2 reach, T) matrix that continues a clip `reach` frames past
+    each end by reflecting it through its end frame (x_-k = 2 x_0 - x_k): a
+    clip that ends moving goes on moving, where repeating the end frame
+    would stop it at once (a deceleration it never had)."""
+    at = np.arange(-reach, frames + reach)
+    mirrored = np.clip(np.where(at < 0, -at, 2 * (frames - 1) - at), 0, frames - 1)
+    end = np.where(at < 0, 0, frames - 1)
+    outside = (at < 0) | (at >= frames)
+    rows = np.arange(len(at))
+    return sp.csr_matrix(
+        (
+            np.r_[np.where(outside, 0.0, 1.0), np.where(outside, 2.0, 0.0), np.where(outside, -1.0, 0.0)],
+            (np.tile(rows, 3), np.r_[np.clip(at, 0, frames - 1), end, mirrored]),
+        ),
+        shape=(len(at), frames),
+    )
 
 
 def _angular_velocity(rotations: np.ndarray, dt: float) -> np.ndarray:
@@ -294,12 +331,14 @@ BLOCK = 64  # frames per cost term of the program (its Hessian is block-diagonal
 
 def second_rate_matrix(frames: int, fps: float) -> sp.csr_matrix:
     """`smoothed_rate(., fps, 2)` as a sparse (T, T) matrix (it is linear):
-    the centred `moving_average` (the ends repeated), then `np.gradient`
+    the centred `weighted_average` (the ends continued), then `np.gradient`
     twice (one-sided at the ends)."""
-    window = max(1, int(round(SMOOTHING * fps)))
-    rows = np.repeat(np.arange(frames), window)
-    columns = np.clip(rows + np.tile(np.arange(-(window // 2), (window - 1) // 2 + 1), frames), 0, frames - 1)
-    average = sp.csr_matrix((np.full(len(rows), 1.0 / window), (rows, columns)), shape=(frames, frames))
+    kernel = smoothing_kernel(fps)
+    reach = len(kernel) // 2
+    rows = np.repeat(np.arange(frames), len(kernel))
+    columns = rows + np.tile(np.arange(len(kernel)), frames)  # into the continued clip
+    convolution = sp.csr_matrix((np.tile(kernel, frames), (rows, columns)), shape=(frames, frames + 2 * reach))
+    average = convolution @ _continued(frames, reach)
     gradient = _gradient_matrix(frames, fps)
     return (gradient @ gradient @ average).tocsr()
 
