@@ -50,6 +50,7 @@ def clip_rows(name: str, clip: MotionClip, robots: tuple[str, ...] = LEGGED) -> 
                 "planted_sole_tilt_deg": figures["planted_sole_tilt_deg"],
                 "planted_sole_height_m": figures["planted_sole_height_m"],
                 "foot_skate_m_per_s": figures["foot_skate_m_per_s"],
+                "planted_sole_slip_m_per_s": figures["planted_sole_slip_m_per_s"],
                 "centre_of_pressure_margin": margin,
                 "torque_over_limit_share": figures.get("torque_over_limit_share"),
                 "worst_joint": {"name": worst[0], **worst[1]} if worst else None,
@@ -64,7 +65,8 @@ def markdown(rows: list[dict]) -> str:
     lines = [
         "| clip | robot | stance median (least) | / UDH's | leg penetration | planted sole tilt (deg) "
         "| CoP inside before | after | after, clear of flight "
-        "| least margin after (m) | skate (m/s) | frames over a torque limit | joint most often over (share, most) |",
+        "| least margin after (m) | skate: ankle, sole (m/s) | frames over a torque limit "
+        "| joint most often over (share, most) |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for row in rows:
@@ -80,7 +82,7 @@ def markdown(rows: list[dict]) -> str:
             f"| {row['planted_sole_tilt_deg']['median']} ({row['planted_sole_tilt_deg']['most']}) "
             f"| {before.get('inside_share', '-')} "
             f"| {after.get('inside_share', '-')} | {after.get('inside_share_clear_of_flight', '-')} "
-            f"| {after.get('least_m', '-')} | {row['foot_skate_m_per_s']} "
+            f"| {after.get('least_m', '-')} | {row['foot_skate_m_per_s']}, {row['planted_sole_slip_m_per_s']} "
             f"| {row['torque_over_limit_share']} | {joint} |"
         )
     return "\n".join(lines)

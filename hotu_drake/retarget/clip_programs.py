@@ -52,6 +52,7 @@ from hotu_drake.control.whole_body_qp import SOLVED
 from hotu_drake.embodiment.spec import SIDES
 from hotu_drake.motion.synthesis import smooth
 from hotu_drake.retarget.balance import MOST_MOVED, balancing_shift, inside_share, shifted_pressure
+from hotu_drake.retarget.foot_roll import SoleEdges, foot_rolls, sole_edges, turn_about
 from hotu_drake.retarget.part_ik import FINGER_LEVEL, SHAPE_TOLERANCE, TRUST_REGION
 from hotu_drake.retarget.targets import sideways_target
 from hotu_drake.retarget.tree import Pose
@@ -235,6 +236,8 @@ class ClipSolver:
             if id(part) not in held:
                 self.levels.setdefault(part.level, []).append(part)
         self._programs: dict[tuple[int, ...], ClipProgram] = {}
+        # Each planted foot's roll about its sole's edge (rad, T), the source's (`foot_roll`); none: flat.
+        self.rolls: dict[str, np.ndarray] = {}
 
     def program(self, level: int) -> ClipProgram:
         """The program of one level."""
@@ -439,6 +442,9 @@ class ClipSolver:
             return positions
         poses = poses.translated(lift[:, None])  # moving the root moves every link alike
         ankles = self.ankles(poses)
+        # Where each planted ankle goes: its flat foot's ankle where it landed, turned by its roll.
+        headings, rolls, edges = self._headings(poses), self._rolls(), self._edges()
+        flat = {side: edges[side].unrolled(ankles[side], headings[side], rolls[side]) for side in r._lock}
         anchors = {side: np.full((self.frames, 3), np.nan) for side in r._lock}
         shift = np.zeros((self.frames, 3))
         current: dict[str, np.ndarray] = {}
@@ -448,10 +454,14 @@ class ClipSolver:
                 if side not in planted:
                     del current[side]
             for side in planted:  # a foot lands: its anchor is where it is, unshifted
-                current.setdefault(side, ankles[side][t].copy())
+                current.setdefault(side, flat[side][t].copy())
                 anchors[side][t] = current[side]
+        for side in r._lock:
+            anchors[side] = edges[side].rolled(anchors[side], headings[side], rolls[side])
+        for t in range(self.frames):
+            planted = [s for s in r._lock if contacts.get(s) is not None and contacts[s][t]]
             if planted:  # the first planted foot (left before right) carries the body
-                drift = current[planted[0]] - ankles[planted[0]][t]
+                drift = anchors[planted[0]][t] - ankles[planted[0]][t]
                 shift[t, :2] = drift[:2]
         # The drift taken out smoothly: frame-by-frame corrections would shake the body (its centre of mass
         # accelerating at 5-9 m/s^2 in the library walk); the legs' program keeps the planted feet on their anchors.
@@ -462,6 +472,19 @@ class ClipSolver:
         # The levelled soles: planted ones back on the floor (up to the heights' averaging), none below it.
         positions[:, 2] += self._heights(self._lowest(self._poses(q, rotations, positions)), contacts, fps)
         return positions
+
+    def _headings(self, poses: Pose) -> dict[str, np.ndarray]:
+        """Each foot's yaw-only frame (T, 3, 3)."""
+        return {side: heading_rotation(poses.rotations[:, self.r._link_of(f"{side}_toe")]) for side in self.r._lock}
+
+    def _rolls(self) -> dict[str, np.ndarray]:
+        return {side: self.rolls.get(side, np.zeros(self.frames)) for side in self.r._lock}
+
+    def _edges(self) -> dict[str, SoleEdges]:
+        """Each sole's edges from its ankle, from the standing pose (its feet flat)."""
+        r = self.r
+        pose = r.tree.forward(r.embodiment.standing_pose)
+        return {side: sole_edges(pose, r.soles, r.marks.position(pose, f"{side}_ankle"), side) for side in r._lock}
 
     def ankles(self, poses: Pose) -> dict[str, np.ndarray]:
         """Each leg's ankle (T, 3) in the world, of the body at `poses`."""
@@ -515,7 +538,10 @@ class ClipSolver:
                 joints = problem.joints
                 mask = planted[side].astype(float)
                 foot_link = r._link_of(f"{side}_toe")
-                level = heading_rotation(poses.rotations[:, foot_link]) @ r.rest_frames[f"{side}_foot"]
+                heading = heading_rotation(poses.rotations[:, foot_link])
+                # The sole level, or turned about its edge by the foot's roll (`foot_roll`).
+                turn = turn_about(heading[:, :, 1], self._rolls()[side])
+                level = turn @ heading @ r.rest_frames[f"{side}_foot"]
                 target = np.where(planted[side][:, None], anchors[side], 0.0)
                 rows = [row for part in self.leg_parts[side] for row in self._rows(part, joints, fixed, q, poses)]
                 goals = [(position, target, ANCHOR_WEIGHT * mask), (orientation, level, TILT_WEIGHT * mask)]
@@ -531,7 +557,7 @@ class ClipSolver:
 
 
 def balance(
-    solver: ClipSolver, q, rotations, positions, contacts: dict, fixed: dict, fps: float
+    solver: ClipSolver, q, rotations, positions, contacts: dict, fixed: dict, fps: float, bearing: dict | None = None
 ) -> tuple[np.ndarray, dict]:
     """The balance pass: the body shifted so that the clip's centre of
     pressure, with the robot's own mass distribution, comes
@@ -547,7 +573,8 @@ def balance(
     support margins (m, per frame) before and after."""
     dynamics = solver.r.balance
     poses = dynamics.poses(q, rotations, positions)
-    support = dynamics.support(poses, contacts)  # where the planted feet are, and will be put back
+    bearing = contacts if bearing is None else bearing
+    support = dynamics.support(poses, bearing)  # where the planted feet are, and will be put back
     com, pressure = dynamics.centroidal(poses, fps)
     margins = {"before": support.margin(pressure)}
     ankles = solver.ankles(solver._poses(q, rotations, positions))
@@ -569,7 +596,7 @@ def balance(
         staying = feet_stay(solver, fixed, total)
         positions = solver.move_body(q, rotations, positions, contacts, staying, shift, ankles, fps)
         poses = dynamics.poses(q, rotations, positions)
-        support = dynamics.support(poses, contacts)
+        support = dynamics.support(poses, bearing)
         moved_com, pressure = dynamics.centroidal(poses, fps)
         moved = np.sum(shift * shift)
         if moved > MEASURABLE**2 * len(q):  # a round that hardly moved the body says little about how it follows
@@ -673,7 +700,9 @@ def retarget_clip(
     if len(solved) == frames:
         return _retarget_solved(r, src, src_frames, contacts, ratio, fps)
     on_solved = (_take(src, solved), _take(src_frames, solved), contacts_on(contacts, solved))
-    q_solved, _, positions_solved = _retarget_solved(r, *on_solved, ratio, fps * (len(solved) - 1) / (frames - 1))
+    rate = fps * (len(solved) - 1) / (frames - 1)
+    bearing = {side: np.asarray(flags, bool)[solved] for side, flags in contacts.items()}
+    q_solved, _, positions_solved = _retarget_solved(r, *on_solved, ratio, rate, bearing)
     everywhere = np.arange(frames)
     base, rotations, positions = r.root_path(src, src_frames, ratio)
     q = np.empty((frames, q_solved.shape[1]))
@@ -717,7 +746,7 @@ def contacts_on(contacts: dict, solved: np.ndarray) -> dict:
 
 
 def _retarget_solved(
-    retargeter, src: dict, src_frames: dict, contacts: dict, ratio: float, fps: float
+    retargeter, src: dict, src_frames: dict, contacts: dict, ratio: float, fps: float, bearing: dict | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """`retarget_clip` on every frame it is given.
 
@@ -740,6 +769,11 @@ def _retarget_solved(
     coarse_pass = stride > 1 and frames >= 4 * stride
     # After a coarse pass, the legs' program alone solves the legs over all frames.
     solver = ClipSolver(r, frames, legs=not coarse_pass)
+    if r.legged and solver.plants_feet:
+        edges = solver._edges()
+        for side, (way, rise) in foot_rolls(src, src_frames, contacts).items():
+            if side in edges:
+                solver.rolls[side] = edges[side].rolls_rising(ratio * rise, way)
     fixed = solver.source_targets(src, src_frames)
     if coarse_pass:
         coarse = np.unique(np.r_[np.arange(0, frames, stride), frames - 1])
@@ -766,6 +800,6 @@ def _retarget_solved(
     if r.legged:
         positions = solver.plant_feet(q, rotations, positions, contacts, fixed, fps)
         if options.balance and r.spec.floating_base and solver.plants_feet and contacts:
-            positions, r.margins = balance(solver, q, rotations, positions, contacts, fixed, fps)
+            positions, r.margins = balance(solver, q, rotations, positions, contacts, fixed, fps, bearing)
     np.clip(q, lower, upper, out=q)
     return q, rotations, positions

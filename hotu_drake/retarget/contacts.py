@@ -7,6 +7,10 @@ from hotu_drake.retarget.tree import Pose, Tree
 
 CONTACT_HEIGHT = 0.04  # m above the clip's floor
 CONTACT_SPEED = 0.12  # m/s horizontal, of the foot's stiller end (the ankle's landmark or the toe's)
+# m/s: a planted foot stays planted, low, until its stiller end moves this fast. A capture's toe landmark
+# (on top of the toes, which bend as the heel rises over them) moves at 0.1-0.4 m/s before the toes leave the
+# floor: at CONTACT_SPEED the Qualisys walk had no double support, 5-7 frames with no foot down at each step.
+RELEASE_SPEED = 0.3
 MIN_PHASE_FRAMES = 3
 MIN_PHASE_SECONDS = 0.05  # and no contact or flight phase shorter than this (but at the clip's ends)
 
@@ -27,9 +31,22 @@ def _clean(flags: np.ndarray, min_frames: int) -> np.ndarray:
     return flags
 
 
+def _held(landed: np.ndarray, holding: np.ndarray) -> np.ndarray:
+    """The contact phases of `landed` (T,) each grown, forwards and back, over the frames `holding` (T,) next to it."""
+    out = landed.copy()
+    for t in range(1, len(out)):
+        if not out[t] and out[t - 1] and holding[t]:
+            out[t] = True
+    for t in range(len(out) - 2, -1, -1):
+        if not out[t] and out[t + 1] and holding[t]:
+            out[t] = True
+    return out
+
+
 def detect_foot_contacts(landmarks: dict[str, np.ndarray], fps: float) -> dict[str, np.ndarray]:
     """side -> (T,) bool: the foot is low and one of its ends (nearly)
-    still: the heel as it lands, the toe as the heel rises to push off."""
+    still: the heel as it lands, the toe as the heel rises to push off; and
+    it stays planted, low, until that end moves at `RELEASE_SPEED`."""
     heights = np.stack(
         [np.minimum(landmarks[f"{s}_toe"][:, 2], landmarks[f"{s}_ankle"][:, 2]) for s in ("left", "right")]
     )
@@ -43,7 +60,8 @@ def detect_foot_contacts(landmarks: dict[str, np.ndarray], fps: float) -> dict[s
         else:
             speed = np.zeros(1)
         low = heights[i] - floor < CONTACT_HEIGHT
-        out[side] = _clean(low & (speed < CONTACT_SPEED), shortest)
+        landed = low & (speed < CONTACT_SPEED)
+        out[side] = _clean(_held(landed, low & (speed < RELEASE_SPEED)), shortest)
     return out
 
 

@@ -14,7 +14,7 @@ from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import FINGER_POINTS, body_height, landmarks_of
 from hotu_drake.motion.udh_skeleton import points_on_clip
 from hotu_drake.retarget import frames
-from hotu_drake.retarget.balance import ClipBalance, TorqueDemand, clear_of_flight, inside_share
+from hotu_drake.retarget.balance import ON_FLOOR, ClipBalance, TorqueDemand, clear_of_flight, inside_share
 from hotu_drake.retarget.contacts import Soles, detect_foot_contacts
 from hotu_drake.retarget.neutral import calibrate
 from hotu_drake.retarget.retargeter import Retargeter, foot_contacts_of, whole_finger_points
@@ -140,6 +140,29 @@ def planted_sole_height(emb: embodiments.Embodiment, tree: Tree, clip: MotionCli
     }
 
 
+def planted_sole_slip(emb: embodiments.Embodiment, tree: Tree, clip: MotionClip, contacts: dict) -> float | None:
+    """How fast (m/s, horizontally) a planted foot's sole slides where it is
+    on the floor: per planted frame, the mean speed of its sole points within
+    `balance.ON_FLOOR` of the floor (a flat sole's every point, a rolling
+    foot's edge), averaged over the planted frames. A foot rolling over its
+    toes is not slipping though its ankle moves (`foot_skate_m_per_s`, the
+    ankle's speed, counts it)."""
+    soles = Soles(emb.spec, tree)
+    poses = tree.forward_frames(clip.joint_positions, quat_to_matrix(clip.root_quaternion), clip.root_position)
+    speeds = []
+    for side, planted in contacts.items():
+        if side not in soles.feet:
+            continue
+        link, points, radii = soles.feet[side]
+        world = poses.positions[:, link, None, :] + np.einsum("tij,kj->tki", poses.rotations[:, link], points)
+        speed = np.linalg.norm(finite_difference(world[..., :2], clip.fps), axis=-1)  # (T, K)
+        down = world[..., 2] - radii < ON_FLOOR
+        frames = np.asarray(planted, bool) & down.any(axis=1)
+        speeds.append((speed * down).sum(axis=1)[frames] / down.sum(axis=1)[frames])
+    speed = np.concatenate(speeds) if speeds else np.zeros(0)
+    return round(float(speed.mean()), 4) if speed.size else None
+
+
 def report(
     source: MotionClip, result: MotionClip, emb: embodiments.Embodiment, seconds: float, margins: dict | None = None
 ) -> dict:
@@ -233,6 +256,7 @@ def report(
         out["foot_penetration_m"] = round(max(0.0, -lowest), 4)
         out["planted_sole_tilt_deg"] = planted_sole_tilt(emb, tree, result, contacts)
         out["planted_sole_height_m"] = planted_sole_height(emb, tree, result, contacts)
+        out["planted_sole_slip_m_per_s"] = planted_sole_slip(emb, tree, result, contacts)
         # The robot's own stance (feet apart over its standing width), and its legs clear of each other.
         out["stance_ratio"] = stance(emb, dst)
         depths = leg_contacts(emb).depths(result)
