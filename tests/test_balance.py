@@ -184,6 +184,10 @@ def test_a_capture_s_jitter_does_not_throw_the_centre_of_pressure_about(fps):
     moved_by = 0.9 / 9.81 * np.abs(smoothed_rate(jitter, fps, 2))
     assert moved_by.max() < 0.1
     assert np.median(moved_by) < 0.03
+    # A frame that is not finite spoils the estimate only within the average's reach of it.
+    spoiled = jitter.copy()
+    spoiled[-1] = np.nan
+    assert np.isfinite(smoothed_rate(spoiled, fps, 2)[: -int(0.2 * fps)]).all()
 
 
 def test_a_foot_is_planted_from_its_heel_landing_to_its_toe_pushing_off():

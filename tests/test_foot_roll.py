@@ -8,10 +8,11 @@ from hotu_drake import embodiment
 from hotu_drake.motion.load import load_motion
 from hotu_drake.retarget.balance import ClipBalance
 from hotu_drake.retarget.contacts import RELEASE_SPEED, detect_foot_contacts
-from hotu_drake.retarget.foot_roll import FLAT, SoleEdges, foot_rolls, turn_about
+from hotu_drake.retarget.foot_roll import FLAT, SoleEdges, foot_rolls
 from hotu_drake.retarget.metrics import report
 from hotu_drake.retarget.pipeline import retarget_onto
 from hotu_drake.retarget.retargeter import foot_contacts_of
+from hotu_drake.retarget.tree import axis_angles
 from hotu_drake.rotations import quat_to_matrix
 from tests.conftest import SHARED
 
@@ -49,13 +50,21 @@ def test_the_roll_that_raises_the_ankle_by_as_much_as_the_source_s():
     assert np.all(EDGES.rolls_rising(rises, np.zeros(5)) == 0.0)  # a flat foot does not roll
 
 
-def test_turn_about_is_a_rotation_about_its_axis():
-    axes = np.array([[0.0, 1.0, 0.0], [0.6, 0.8, 0.0]])
-    turns = turn_about(axes, np.array([0.3, -1.1]))
-    np.testing.assert_allclose(turns @ np.swapaxes(turns, 1, 2), np.tile(np.eye(3), (2, 1, 1)), atol=1e-12)
-    np.testing.assert_allclose(np.einsum("tij,tj->ti", turns, axes), axes, atol=1e-12)
-    # Toes down for a positive turn about a foot's left (its x forward).
-    assert (turns[0] @ np.array([1.0, 0.0, 0.0]))[2] < 0
+def test_a_positive_roll_is_toes_down():
+    """The rolls turn about the foot's left (its heading's y): positive takes its x (to the toes) down."""
+    turn = axis_angles(np.array([[0.0, 1.0, 0.0]]), np.array([0.3]))[0]
+    assert (turn @ np.array([1.0, 0.0, 0.0]))[2] < 0
+
+
+def test_a_short_heel_rolls_no_further_than_raises_its_ankle_most():
+    """About H1's short heel the ankle rises at most 8 mm (at 26 degrees):
+    a toes-up rise beyond that is the highest roll, not one past it."""
+    h1_like = SoleEdges(front=0.16, back=-0.035, down=-0.07)
+    peak = np.arctan2(0.035, 0.07)
+    rises = np.array([0.002, 0.006, h1_like.rise(np.array([-peak]))[0], 0.02])
+    rolls = h1_like.rolls_rising(rises, -np.ones(4))
+    assert np.all(np.diff(-rolls) > -1e-12) and -rolls[-1] == pytest.approx(peak)
+    np.testing.assert_allclose(h1_like.rise(rolls[:3]), rises[:3], atol=1e-4)
 
 
 def test_the_source_s_roll_is_read_over_its_planted_frames():
@@ -94,6 +103,9 @@ def test_a_capture_s_foot_stays_planted_while_its_toes_roll():
     planted = detect_foot_contacts(landmarks, fps)["left"]
     assert 0.2 < RELEASE_SPEED < 1.0
     assert planted[:89].all() and not planted[92:].any()
+    # Played backwards: a foot coming down low, still sliding at 0.2 m/s, is planted from then.
+    backwards = {name: points[::-1] for name, points in landmarks.items()}
+    assert np.array_equal(detect_foot_contacts(backwards, fps)["left"], planted[::-1])
 
 
 @pytest.mark.skipif(not QUALISYS.exists(), reason="the shared C3D capture is not here")
@@ -106,7 +118,7 @@ def test_a_capture_s_planted_feet_stay_on_the_floor_as_their_heels_rise():
     h1 = embodiment.load("h1", "none")
     figures = report(source, clip, h1, 1.0)
     assert figures["planted_sole_height_m"]["most"] < 0.04
-    assert figures["planted_sole_height_m"]["high_share"] < 0.1
+    assert figures["planted_sole_height_m"]["high_share"] < 0.15  # 0.20 flat on their landing points
     # The rolled feet stand on their edges: somewhere in each planted frame a sole point is on the floor.
     dynamics = ClipBalance(h1)
     poses = dynamics.poses(clip.joint_positions, quat_to_matrix(clip.root_quaternion), clip.root_position)

@@ -52,10 +52,10 @@ from hotu_drake.control.whole_body_qp import SOLVED
 from hotu_drake.embodiment.spec import SIDES
 from hotu_drake.motion.synthesis import smooth
 from hotu_drake.retarget.balance import MOST_MOVED, balancing_shift, inside_share, shifted_pressure
-from hotu_drake.retarget.foot_roll import SoleEdges, foot_rolls, sole_edges, turn_about
+from hotu_drake.retarget.foot_roll import SoleEdges, foot_rolls, sole_edges
 from hotu_drake.retarget.part_ik import FINGER_LEVEL, SHAPE_TOLERANCE, TRUST_REGION
 from hotu_drake.retarget.targets import sideways_target
-from hotu_drake.retarget.tree import Pose
+from hotu_drake.retarget.tree import Pose, axis_angles
 from hotu_drake.rotations import heading_rotation, normalize
 
 # s: the Gaussian sigma over which the root's drift correction (planted feet kept where they landed) is averaged.
@@ -540,7 +540,7 @@ class ClipSolver:
                 foot_link = r._link_of(f"{side}_toe")
                 heading = heading_rotation(poses.rotations[:, foot_link])
                 # The sole level, or turned about its edge by the foot's roll (`foot_roll`).
-                turn = turn_about(heading[:, :, 1], self._rolls()[side])
+                turn = axis_angles(heading[:, :, 1], self._rolls()[side])
                 level = turn @ heading @ r.rest_frames[f"{side}_foot"]
                 target = np.where(planted[side][:, None], anchors[side], 0.0)
                 rows = [row for part in self.leg_parts[side] for row in self._rows(part, joints, fixed, q, poses)]

@@ -7,7 +7,8 @@ from hotu_drake.retarget.tree import Pose, Tree
 
 CONTACT_HEIGHT = 0.04  # m above the clip's floor
 CONTACT_SPEED = 0.12  # m/s horizontal, of the foot's stiller end (the ankle's landmark or the toe's)
-# m/s: a planted foot stays planted, low, until its stiller end moves this fast. A capture's toe landmark
+# m/s: a planted foot stays planted, low, until its stiller end moves this fast (and from when it moved this
+# slowly before landing). A capture's toe landmark
 # (on top of the toes, which bend as the heel rises over them) moves at 0.1-0.4 m/s before the toes leave the
 # floor: at CONTACT_SPEED the Qualisys walk had no double support, 5-7 frames with no foot down at each step.
 RELEASE_SPEED = 0.3
@@ -46,7 +47,9 @@ def _held(landed: np.ndarray, holding: np.ndarray) -> np.ndarray:
 def detect_foot_contacts(landmarks: dict[str, np.ndarray], fps: float) -> dict[str, np.ndarray]:
     """side -> (T,) bool: the foot is low and one of its ends (nearly)
     still: the heel as it lands, the toe as the heel rises to push off; and
-    it stays planted, low, until that end moves at `RELEASE_SPEED`."""
+    it stays planted, low, until that end moves at `RELEASE_SPEED` (and is
+    planted from when it came that slow and low before: a heel landing
+    still sliding)."""
     heights = np.stack(
         [np.minimum(landmarks[f"{s}_toe"][:, 2], landmarks[f"{s}_ankle"][:, 2]) for s in ("left", "right")]
     )

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hotu_drake.embodiment.spec import SIDES
+from hotu_drake.retarget.tree import axis_angles
 from hotu_drake.rotations import heading_rotation
 
 # rad: a source foot pitched less than this from its flat pitch counts as flat (the roll starts from 0 there).
@@ -53,15 +54,6 @@ def foot_rolls(
     return out
 
 
-def turn_about(axes: np.ndarray, angles: np.ndarray) -> np.ndarray:
-    """Rotations (T, 3, 3) by `angles` (T,) about unit `axes` (T, 3) (Rodrigues)."""
-    c, s = np.cos(angles)[:, None, None], np.sin(angles)[:, None, None]
-    x, y, z = axes[:, 0], axes[:, 1], axes[:, 2]
-    zero = np.zeros_like(x)
-    skew = np.stack([np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1), np.stack([-y, x, zero], -1)], -2)
-    return c * np.eye(3) + s * skew + (1.0 - c) * np.einsum("ti,tj->tij", axes, axes)
-
-
 @dataclass(frozen=True)
 class SoleEdges:
     """Where a flat sole's front and back edges are from the ankle's
@@ -78,11 +70,16 @@ class SoleEdges:
         return np.abs(along) * np.sin(np.abs(rolls)) - self.down * (np.cos(rolls) - 1.0)
 
     def rolls_rising(self, rises: np.ndarray, signs: np.ndarray) -> np.ndarray:
-        """The rolls (T,) that raise the ankle by `rises` (T, m), heel up where `signs` > 0, toes up where < 0."""
-        grid = np.linspace(0.0, MOST_ROLLED, 161)
-        front, back = self.rise(grid), self.rise(-grid)
-        out = np.where(signs > 0, np.interp(rises, front, grid), -np.interp(rises, back, grid))
-        return np.where(signs == 0, 0.0, out)
+        """The rolls (T,) that raise the ankle by `rises` (T, m), heel up where
+        `signs` > 0, toes up where < 0: at most `MOST_ROLLED`, and at most the
+        roll that raises it most (about a short heel the ankle, turned past
+        above its edge, comes down again: H1's at 26 degrees, 8 mm up)."""
+        out = np.zeros(len(rises))
+        for sign, along in ((1.0, self.front), (-1.0, self.back)):
+            grid = np.linspace(0.0, min(MOST_ROLLED, np.arctan2(abs(along), -self.down)), 161)
+            rolled = np.interp(rises, self.rise(sign * grid), grid)
+            out = np.where(signs * sign > 0, sign * rolled, out)
+        return out
 
     def pivots(self, headings: np.ndarray, rolls: np.ndarray) -> np.ndarray:
         """The edge each frame turns about, from the flat ankle (T, 3): the
@@ -95,13 +92,13 @@ class SoleEdges:
         """The ankle (T, 3) of the foot whose flat ankle is at `flat`, turned
         by `rolls` about its edge (which stays where it is)."""
         edge = self.pivots(headings, rolls)
-        turn = turn_about(headings[:, :, 1], rolls)
+        turn = axis_angles(headings[:, :, 1], rolls)
         return flat + edge - np.einsum("tij,tj->ti", turn, edge)
 
     def unrolled(self, ankle: np.ndarray, headings: np.ndarray, rolls: np.ndarray) -> np.ndarray:
         """The flat ankle (T, 3) of a foot whose ankle, turned by `rolls`, is at `ankle`."""
         edge = self.pivots(headings, rolls)
-        turn = turn_about(headings[:, :, 1], rolls)
+        turn = axis_angles(headings[:, :, 1], rolls)
         return ankle + np.einsum("tij,tj->ti", turn, edge) - edge
 
 
