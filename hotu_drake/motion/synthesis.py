@@ -68,14 +68,24 @@ def hermite(t: np.ndarray, times, values, slopes) -> np.ndarray:
     return h00 * values[i] + h10 * h * slopes[i] + h01 * values[i + 1] + h11 * h * slopes[i + 1]
 
 
+def gaussian_weights(fps: float, sigma: float) -> np.ndarray:
+    """The weights (odd in length, centred, summing to 1) of a Gaussian of
+    `sigma` s over frames at `fps`, cut at three deviations (one weight of 1
+    below a third of a frame)."""
+    radius = int(np.ceil(3.0 * sigma * fps))
+    if radius < 1:
+        return np.ones(1)
+    k = np.exp(-0.5 * (np.arange(-radius, radius + 1) / (sigma * fps)) ** 2)
+    return k / k.sum()
+
+
 def smooth(x: np.ndarray, fps: float, sigma: float) -> np.ndarray:
     """Gaussian low-pass along time (axis 0), edges padded with the end values."""
     x = np.asarray(x, dtype=float)
-    radius = int(np.ceil(3.0 * sigma * fps))
+    k = gaussian_weights(fps, sigma)
+    radius = len(k) // 2
     if radius < 1:
         return x.copy()
-    k = np.exp(-0.5 * (np.arange(-radius, radius + 1) / (sigma * fps)) ** 2)
-    k /= k.sum()
     flat = x.reshape(len(x), -1)
     padded = np.concatenate([np.repeat(flat[:1], radius, 0), flat, np.repeat(flat[-1:], radius, 0)])
     out = np.stack([np.convolve(padded[:, j], k, mode="valid") for j in range(flat.shape[1])], axis=1)

@@ -31,6 +31,7 @@ import scipy.sparse as sp
 
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.landmarks import landmark_placements
+from hotu_drake.motion.synthesis import gaussian_weights
 from hotu_drake.retarget.contacts import Soles
 from hotu_drake.retarget.targets import Landmarks
 from hotu_drake.retarget.tree import Pose, Tree, cross
@@ -222,13 +223,9 @@ def clear_of_flight(contacts: dict[str, np.ndarray], fps: float) -> np.ndarray:
 
 
 def smoothing_kernel(fps: float) -> np.ndarray:
-    """The centroidal figures' averaging weights over frames at `fps`:
-    a Gaussian of deviation `SMOOTHING` / sqrt(12), cut at three
-    deviations (odd in length, centred), summing to 1."""
-    deviation = SMOOTHING / np.sqrt(12.0) * fps
-    reach = int(np.ceil(3.0 * deviation))
-    weights = np.exp(-0.5 * (np.arange(-reach, reach + 1) / max(deviation, 1e-9)) ** 2)
-    return weights / weights.sum()
+    """The centroidal figures' averaging weights over frames at `fps`: a
+    Gaussian of deviation `SMOOTHING` / sqrt(12) (`synthesis.gaussian_weights`)."""
+    return gaussian_weights(fps, SMOOTHING / np.sqrt(12.0))
 
 
 def weighted_average(values: np.ndarray, kernel: np.ndarray) -> np.ndarray:
