@@ -88,3 +88,30 @@ def test_until_landing_counts_to_the_next_frame_down():
     plan = _stepping_plan([slice(0, 3), slice(8, None)])
     assert plan.until_landing("right_foot", 0.5) == 0.0
     np.testing.assert_allclose([plan.until_landing("right_foot", t) for t in (0.8, 0.9, 1.1)], [0.5, 0.4, 0.2])
+
+
+def test_a_loop_is_planned_from_its_own_first_frame_and_on_across_its_seams():
+    """A looped walk's first pass follows the plan from the clip's own first
+    frame, where the robot starts (the plan's middle pass, which follows a
+    pass before it, had H1's CoM 2.3 cm aside there, moving at 0.1 m/s);
+    later passes the middle one; the planned CoM goes on across each seam."""
+    from pydrake.multibody.plant import MultibodyPlant
+
+    from hotu_drake import embodiment
+    from hotu_drake.control.clip_plan import ClipPlan
+    from hotu_drake.retarget.pipeline import library_clip
+
+    clip = library_clip("walk", "h1")
+    emb = embodiment.load("h1", "none")
+    plant = MultibodyPlant(0.0)
+    model = emb.add_to_plant(plant, builtin_pd=False)
+    plant.Finalize()
+    context = plant.CreateDefaultContext()
+    plan = ClipPlan(clip, plant, model, emb, context, loop=True)
+    plan.set_reference(context, 0.0)
+    start = plant.CalcCenterOfMassPositionInWorld(context, [model])[:2]
+    assert np.linalg.norm(plan.planned_com(0.0)[0] - start) < 0.005
+    for seam in (plan.period, 2 * plan.period):
+        before, after = (plan.planned_com(seam + step) for step in (-1e-4, 1e-4))
+        np.testing.assert_allclose(before[0], after[0], atol=1e-3)
+        np.testing.assert_allclose(before[1], after[1], atol=0.02)

@@ -280,8 +280,9 @@ class ClipPlan:
 
     def _plan_com(self, context) -> None:
         """The clip's CoM path, the ZMP path from its footsteps, and the
-        ZmpPlanner over them: three passes of a loop (the controller uses the
-        middle one, so the plan's preview never sees an end), or the clip; then
+        ZmpPlanner over them: three passes of a loop (the controller follows
+        the first from the clip's first frame, then the middle one for every
+        later pass, so the plan's preview never sees an end), or the clip; then
         its last frame held for `HOLD_AFTER` s (a clip that ends, at rest; a
         loop, only so that the planner's last ZMP is held)."""
         clip, plant, fps = self.clip, self.plant, self.clip.fps
@@ -327,9 +328,12 @@ class ClipPlan:
         )
 
     def _to_plan(self, time: float) -> tuple[Planar, float]:
-        """The map from the world at `time` into the planned pass, and the plan's time."""
+        """The map from the world at `time` into the planned pass, and the
+        plan's time: a loop's first pass is the plan's first (planned from
+        the clip's own first frame, where the robot starts), every later one
+        its middle pass (which follows a pass, as they do)."""
         index, clip_time = self.pass_at(time)
-        if not self.loop:
+        if not self.loop or index == 0:
             return Planar(), clip_time
         return self.placement(1) @ self.placement(index).inverse(), clip_time + self.period
 
