@@ -147,6 +147,14 @@ class Retargeter:
         fingers = set(embodiment.finger_joints)
         body = [i for i, n in enumerate(self.tree.joint_names) if n not in fingers]
         self._body_groups = self.tree.depth_groups(body)
+        # The joints above each leg's ankle, toe and sole: all that planting a foot moves or looks at.
+        legs = {
+            joint
+            for side in self._lock
+            for link in (self._link_of(f"{side}_ankle"), self._link_of(f"{side}_toe"), self.soles.feet[side][0])
+            for joint in self.tree.link_ancestors[link]
+        }
+        self._leg_groups = self.tree.depth_groups(sorted(legs))
         self.calibration: dict = {}
         if self.options.calibrate and embodiment.name != "udh":
             self.calibration = neutral_calibration(self, set(source_landmarks))
@@ -513,9 +521,13 @@ class Retargeter:
         """Poses of every link but the fingers."""
         return self.tree.forward(q, root_rotation, root_position, self._body_groups)
 
+    def _leg_pose(self, q, root_rotation, root_position):
+        """Poses of the legs' links (the others left unset): what `_feet` moves and looks at."""
+        return self.tree.forward(q, root_rotation, root_position, self._leg_groups)
+
     def _feet(self, q, root_rotation, root_position, contacts, anchors, height_offset):
         """Keep planted soles on the floor and where they landed."""
-        pose = self._body_pose(q, root_rotation, root_position)
+        pose = self._leg_pose(q, root_rotation, root_position)
         planted = [s for s in SIDES if contacts.get(s)]
         for side in SIDES:
             if side not in planted:
@@ -531,7 +543,7 @@ class Retargeter:
                         if self._tilt(pose, side) < LEVEL_TOLERANCE:
                             break
                         self._lock_leg(side, q, pose, None, self._level_foot(pose, side))
-                        pose = self._body_pose(q, root_rotation, root_position)
+                        pose = self._leg_pose(q, root_rotation, root_position)
                     anchors.setdefault(side, self.marks.position(pose, f"{side}_ankle").copy())
                 # The earliest planted foot carries the body: shift the root onto it.
                 first = planted[0]
@@ -545,7 +557,7 @@ class Retargeter:
                         if near < LOCK_TOLERANCE and self._tilt(pose, side) < LEVEL_TOLERANCE:
                             break
                         self._lock_leg(side, q, pose, anchors[side], foot)
-                        pose = self._body_pose(q, root_rotation, root_position)
+                        pose = self._leg_pose(q, root_rotation, root_position)
         feet = [self.soles.lowest(pose, s) for s in SIDES if s in self.soles.feet]
         if feet and min(feet) < 0.0:  # never below the floor
             root_position = root_position + [0.0, 0.0, -min(feet)]
