@@ -89,7 +89,7 @@ def test_neutral_calibration_holds_walkers_shins_and_naviais_shoulders_as_built(
     """The neutral pose's offsets (Walker's angled shins, NAVIAI's shoulders)
     are kept instead of fought: NAVIAI's shoulders' direction error from
     its neutral pose drops by half; Walker's shins (whose sideways targets
-    already stand them at the neutral width) stay within 2 degrees of it."""
+    already stand them at the neutral width) stay within 2.5 degrees of it."""
     udh = to_udh(walk, "none").clip
     for robot, part in (("walker", "knee"), ("naviai", "shoulder")):
         emb = embodiment.load(robot, "none")
@@ -101,7 +101,9 @@ def test_neutral_calibration_holds_walkers_shins_and_naviais_shoulders_as_built(
         if robot == "naviai":
             assert errors[True][part]["mean"] < 0.5 * errors[False][part]["mean"], robot
         else:  # the legs' sideways targets already stand them at the neutral width; the shins stay as built
-            assert errors[True][part]["mean"] < 2.0, (robot, errors)  # measured 1.68 (uncalibrated 1.42)
+            # Measured 2.09 (uncalibrated 2.01) since planted soles are anchored on the floor, the legs reaching
+            # for it; 1.68 (1.42) before.
+            assert errors[True][part]["mean"] < 2.5, (robot, errors)
         # The offset itself, measured with the robot standing as straight as it can.
         frame, turn, _, _ = calibration[("dir", f"left_{part}", "left_ankle" if part == "knee" else "left_elbow")]
         assert np.degrees(np.arccos((np.trace(turn) - 1) / 2)) > 10.0, robot

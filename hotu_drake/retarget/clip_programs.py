@@ -23,8 +23,9 @@ pass, and a clip too short for one, solve them by level first). After the
 other parts, the root height keeps planted soles on the floor, the root
 follows the first planted foot's anchor (left before right, as the
 streaming path does), and the legs' program holds each planted ankle on
-its anchor with its sole level over each contact phase, along with the
-legs' own targets.
+its anchor (where it landed, its sole on the floor) with its sole level,
+or rolled over its edge as the source's (`foot_roll`), over each contact
+phase, along with the legs' own targets.
 
 A clip faster than 60 fps (`RetargetOptions.solve_rate`) is solved on
 every k-th frame and interpolated back to its own rate (`retarget_clip`).
@@ -442,9 +443,12 @@ class ClipSolver:
             return positions
         poses = poses.translated(lift[:, None])  # moving the root moves every link alike
         ankles = self.ankles(poses)
-        # Where each planted ankle goes: its flat foot's ankle where it landed, turned by its roll.
+        # Where each planted ankle goes: its flat foot's ankle where it landed, its sole on the floor (where
+        # the other foot held the body up, the root's height alone left it hovering), turned by its roll.
         headings, rolls, edges = self._headings(poses), self._rolls(), self._edges()
         flat = {side: edges[side].unrolled(ankles[side], headings[side], rolls[side]) for side in r._lock}
+        for side in r._lock:
+            flat[side][:, 2] = -edges[side].down
         anchors = {side: np.full((self.frames, 3), np.nan) for side in r._lock}
         shift = np.zeros((self.frames, 3))
         current: dict[str, np.ndarray] = {}
@@ -453,7 +457,7 @@ class ClipSolver:
             for side in list(current):
                 if side not in planted:
                     del current[side]
-            for side in planted:  # a foot lands: its anchor is where it is, unshifted
+            for side in planted:  # a foot lands: its anchor is where it is (its sole on the floor), unshifted
                 current.setdefault(side, flat[side][t].copy())
                 anchors[side][t] = current[side]
         for side in r._lock:
