@@ -7,10 +7,12 @@ raise `InputError` naming the file or field.
 """
 
 import contextlib
+import dataclasses
 import importlib
 import io
 import json
 
+import numpy as np
 import pytest
 
 from hotu_drake.cli import run_cli
@@ -120,7 +122,7 @@ def test_a_body_that_stands_up_at_some_time_is_upright():
     from hotu_drake.motion.load import check_human_motion
     from tests.bad_inputs import LEGS
 
-    clip = generate("squat")
+    clip = generate("squat", fps=120.0)
     points = {name: p for name, p in landmarks_of(clip).items() if name not in LEGS}
     turn = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])  # a quarter turn about x
     pelvis = points["pelvis"]
@@ -179,3 +181,26 @@ def test_a_write_that_fails_removes_the_other_outputs(tmp_path, monkeypatch):
     code, errors = _retarget([*argv, "--html", str(tmp_path / "replay.html")])
     assert code == 2 and errors == [f"error: {tmp_path / 'replay.html'}: No space left on device"], errors
     assert _files(tmp_path) == before
+
+
+def test_a_capture_s_jumping_first_frame_is_dropped_and_said(tmp_path, caplog):
+    """A human clip whose first frame has the wrists half a metre off (a
+    conversion's T-pose frame) loads without it, and a note says so; a clip
+    without one keeps every frame."""
+    import logging
+
+    from hotu_drake.motion.library import generate
+    from hotu_drake.motion.load import MAX_LANDMARK_SPEED, load_motion
+
+    clip = generate("squat", fps=120.0)
+    keys = clip.key_body_positions.copy()
+    for name in ("left_wrist", "right_wrist", "left_hand", "right_hand"):
+        keys[0, clip.key_body_names.index(name), 2] += 0.5  # arms out
+    glitched = dataclasses.replace(clip, key_body_positions=keys)
+    assert 0.5 * clip.fps > MAX_LANDMARK_SPEED
+    with caplog.at_level(logging.INFO, logger="hotu_drake.input"):
+        loaded = load_motion(glitched.save(tmp_path / "glitched.npz"))
+    assert loaded.num_frames == clip.num_frames - 1
+    np.testing.assert_allclose(loaded.key_body_positions, clip.key_body_positions[1:])
+    assert any("its first 1 frame(s) dropped" in record.getMessage() for record in caplog.records)
+    assert load_motion(clip.save(tmp_path / "calm.npz")).num_frames == clip.num_frames

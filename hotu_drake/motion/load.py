@@ -1,6 +1,7 @@
 """Read any supported demonstration file into a `MotionClip`, by its suffix,
 and check that what was read is a plausible human motion."""
 
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +21,14 @@ MAX_ROOT_SPEED = 15.0
 # lifting a box (the library's box_carry) or landing a jump (CMU 01_01)
 # almost 50; lying is near 90, upside down near 180.
 MAX_UPRIGHT_TILT = 60.0
+# m/s: no part of a person moves faster than this from one frame to the next (a pitcher's hand peaks near
+# 40). A frame at a capture's start or end from which a landmark jumps faster is not of the take: a BVH
+# conversion's T-pose first frame (CMU 01_01's wrists jump 0.55 m, at 65 m/s, to its second) is dropped,
+# at most `MOST_TRIMMED` frames at each end, and said in a `note:` line.
+MAX_LANDMARK_SPEED = 40.0
+MOST_TRIMMED = 5
+
+log = logging.getLogger("hotu_drake.input")
 
 
 def load_motion(
@@ -59,9 +68,40 @@ def load_motion(
         check_retargetable(clip, str(path))
     else:
         raise ClipFormatError(f"{path}: unsupported file type '{suffix}' (expected {', '.join(SUFFIXES)})")
-    if check_plausible and clip.embodiment == "human":
-        check_human_motion(clip, str(path))
+    if clip.embodiment == "human":
+        clip = without_jumping_ends(clip, str(path))
+        if check_plausible:
+            check_human_motion(clip, str(path))
     return clip
+
+
+def without_jumping_ends(clip: MotionClip, where: str) -> MotionClip:
+    """The human clip without the frames at its start and end from which a
+    landmark jumps faster than `MAX_LANDMARK_SPEED` (at most `MOST_TRIMMED`
+    at each end; a clip that would keep fewer than two frames is left as it
+    is), said on the `hotu_drake.input` logger."""
+    if clip.num_frames < 3:
+        return clip
+    points = np.stack(list(landmarks_of(clip).values()), axis=1)  # (T, L, 3)
+    with np.errstate(invalid="ignore"):
+        # (T - 1, L), NaN where a landmark is missing
+        jumps = np.linalg.norm(np.diff(points, axis=0), axis=-1) * clip.fps
+        fastest = np.max(np.where(np.isnan(jumps), 0.0, jumps), axis=1)
+    start, stop = 0, clip.num_frames
+    while start < MOST_TRIMMED and fastest[start] > MAX_LANDMARK_SPEED:
+        start += 1
+    while clip.num_frames - stop < MOST_TRIMMED and stop - 2 > start and fastest[stop - 2] > MAX_LANDMARK_SPEED:
+        stop -= 1
+    if (start, stop) == (0, clip.num_frames) or stop - start < 2:
+        return clip
+    ends = [f"its first {start}"] if start else []
+    ends += [f"its last {clip.num_frames - stop}"] if stop < clip.num_frames else []
+    log.info(
+        f"{where}: {' and '.join(ends)} frame(s) dropped: a landmark jumps from them at "
+        f"{max(fastest[:start].max(initial=0.0), fastest[stop - 1 :].max(initial=0.0)):.0f} m/s "
+        f"(more than {MAX_LANDMARK_SPEED:g}; not of the take, a T-pose or a glitch)"
+    )
+    return clip.slice(start, stop)
 
 
 def check_retargetable(clip: MotionClip, where: str) -> None:
