@@ -22,7 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from hotu_drake.embodiment.spec import SIDES
-from hotu_drake.retarget.tree import axis_angles
+from hotu_drake.retarget.contacts import Soles
+from hotu_drake.retarget.tree import Pose, axis_angles
 from hotu_drake.rotations import heading_rotation
 
 # rad: a source foot pitched less than this from its flat pitch counts as flat (the roll starts from 0 there).
@@ -70,7 +71,7 @@ class SoleEdges:
         return np.abs(along) * np.sin(np.abs(rolls)) - self.down * (np.cos(rolls) - 1.0)
 
     def rolls_rising(self, rises: np.ndarray, signs: np.ndarray) -> np.ndarray:
-        """The rolls (T,) that raise the ankle by `rises` (T, m), heel up where
+        """The rolls (T,) that raise the ankle by `rises` (T,; m), heel up where
         `signs` > 0, toes up where < 0: at most `MOST_ROLLED`, and at most the
         roll that raises it most (about a short heel the ankle, turned past
         above its edge, comes down again: H1's at 26 degrees, 8 mm up)."""
@@ -102,10 +103,9 @@ class SoleEdges:
         return ankle + np.einsum("tij,tj->ti", turn, edge) - edge
 
 
-def sole_edges(pose, soles, ankle: np.ndarray, side: str) -> SoleEdges:
-    """A foot's `SoleEdges` from a pose with it flat (`pose`: a `tree.Pose`
-    of one frame; `soles`: the embodiment's `contacts.Soles`; `ankle`: the
-    ankle landmark's world position)."""
+def sole_edges(pose: Pose, soles: Soles, ankle: np.ndarray, side: str) -> SoleEdges:
+    """A foot's `SoleEdges` from a pose of one frame with it flat (`ankle`:
+    the ankle landmark's world position)."""
     link, points, radii = soles.feet[side]
     world = pose.positions[link] + points @ pose.rotations[link].T
     forward = heading_rotation(pose.rotations[link])[:, 0]

@@ -148,10 +148,11 @@ class Retargeter:
         body = [i for i, n in enumerate(self.tree.joint_names) if n not in fingers]
         self._body_groups = self.tree.depth_groups(body)
         # The joints above each leg's ankle, toe and sole: all that planting a foot moves or looks at.
+        sole = {side: [link] for side, (link, _, _) in self.soles.feet.items()}
         legs = {
             joint
             for side in self._lock
-            for link in (self._link_of(f"{side}_ankle"), self._link_of(f"{side}_toe"), self.soles.feet[side][0])
+            for link in [self._link_of(f"{side}_ankle"), self._link_of(f"{side}_toe"), *sole.get(side, [])]
             for joint in self.tree.link_ancestors[link]
         }
         self._leg_groups = self.tree.depth_groups(sorted(legs))
