@@ -124,7 +124,7 @@ def test_a_capture_s_planted_feet_stay_on_the_floor_as_their_heels_rise():
     poses = dynamics.poses(clip.joint_positions, quat_to_matrix(clip.root_quaternion), clip.root_position)
     contacts = foot_contacts_of(clip, clip.num_frames)
     for side, planted in contacts.items():
-        world, radii = dynamics.sole_points(poses, side)
+        world, radii = dynamics.soles.points_frames(poses, side)
         lowest = (world[..., 2] - radii).min(axis=1)
         assert np.median(lowest[np.asarray(planted, bool)]) < 0.005
 

@@ -24,7 +24,7 @@ gives what each joint would have to exert, from Drake's inverse dynamics.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 
 import numpy as np
 import scipy.sparse as sp
@@ -100,12 +100,6 @@ class ClipBalance:
         )
         return com, pressure
 
-    def sole_points(self, poses: Pose, side: str) -> tuple[np.ndarray, np.ndarray]:
-        """A sole's contact points in the world (T, K, 3) and their radii (K,)."""
-        link, points, radii = self.soles.feet[side]
-        world = poses.positions[:, link, None, :] + np.einsum("tij,kj->tki", poses.rotations[:, link], points)
-        return world, radii
-
     def support(self, poses: Pose, contacts: dict[str, np.ndarray]) -> Support:
         """The soles' contact points (T, K, 2), which of them bear weight
         (T, K): every point of a foot the clip has planted, and any point
@@ -113,7 +107,7 @@ class ClipBalance:
         heel rises to push off), and the smallest contact radius (m)."""
         points, down, radii = [], [], []
         for side in self.soles.feet:
-            world, radius = self.sole_points(poses, side)
+            world, radius = self.soles.points_frames(poses, side)
             planted = contacts.get(side)
             planted = np.zeros(len(world), bool) if planted is None else np.asarray(planted, bool)
             points.append(world[..., :2])
@@ -200,9 +194,10 @@ def pendulum_height(com: np.ndarray, fps: float) -> np.ndarray:
 
 def smoothed_rate(values: np.ndarray, fps: float, order: int) -> np.ndarray:
     """The first or second time derivative (`order`) of `values` (T, ...)
-    averaged first (`smoothing_kernel`, about `SMOOTHING` wide): the
+    averaged first (`averaging_matrix`, about `SMOOTHING` wide): the
     centroidal figures' one way of differentiating a clip."""
-    rate = weighted_average(values, smoothing_kernel(fps))
+    values = np.asarray(values, dtype=float)
+    rate = (averaging_matrix(len(values), float(fps)) @ values.reshape(len(values), -1)).reshape(values.shape)
     for _ in range(order):
         rate = np.gradient(rate, 1.0 / fps, axis=0)
     return rate
@@ -228,18 +223,18 @@ def smoothing_kernel(fps: float) -> np.ndarray:
     return gaussian_weights(fps, SMOOTHING / np.sqrt(12.0))
 
 
-def weighted_average(values: np.ndarray, kernel: np.ndarray) -> np.ndarray:
-    """`values` (T, ...) averaged over frames with the centred `kernel`,
-    continued past the clip's ends as they were going (`_continued`)."""
+@lru_cache(maxsize=16)
+def averaging_matrix(frames: int, fps: float) -> sp.csr_matrix:
+    """The centroidal figures' average as a sparse (T, T) matrix: the clip
+    continued past its ends as it was going (`_continued`), then weighted by
+    the centred `smoothing_kernel` (one matrix per clip length and rate,
+    kept: `smoothed_rate` and the filter's program both take it)."""
+    kernel = smoothing_kernel(fps)
     reach = len(kernel) // 2
-    if not reach:
-        return values
-    frames = len(values)
-    padded = (_continued(frames, reach) @ values.reshape(frames, -1)).reshape((frames + 2 * reach, *values.shape[1:]))
-    out = np.zeros(values.shape)
-    for k, weight in enumerate(kernel):
-        out += weight * padded[k : k + frames]
-    return out
+    rows = np.repeat(np.arange(frames), len(kernel))
+    columns = rows + np.tile(np.arange(len(kernel)), frames)  # into the continued clip
+    convolution = sp.csr_matrix((np.tile(kernel, frames), (rows, columns)), shape=(frames, frames + 2 * reach))
+    return (convolution @ _continued(frames, reach)).tocsr()
 
 
 def _continued(frames: int, reach: int) -> sp.csr_matrix:
@@ -331,14 +326,8 @@ BLOCK = 64  # frames per cost term of the program (its Hessian is block-diagonal
 
 def second_rate_matrix(frames: int, fps: float) -> sp.csr_matrix:
     """`smoothed_rate(., fps, 2)` as a sparse (T, T) matrix (it is linear):
-    the centred `weighted_average` (the ends continued), then `np.gradient`
-    twice (one-sided at the ends)."""
-    kernel = smoothing_kernel(fps)
-    reach = len(kernel) // 2
-    rows = np.repeat(np.arange(frames), len(kernel))
-    columns = rows + np.tile(np.arange(len(kernel)), frames)  # into the continued clip
-    convolution = sp.csr_matrix((np.tile(kernel, frames), (rows, columns)), shape=(frames, frames + 2 * reach))
-    average = convolution @ _continued(frames, reach)
+    `averaging_matrix`, then `np.gradient` twice (one-sided at the ends)."""
+    average = averaging_matrix(frames, float(fps))
     gradient = _gradient_matrix(frames, fps)
     return (gradient @ gradient @ average).tocsr()
 

@@ -44,6 +44,7 @@ imports this one, so this one names it in prose only.
 from __future__ import annotations
 
 import itertools
+from functools import cached_property
 
 import numpy as np
 import osqp
@@ -445,13 +446,14 @@ class ClipSolver:
         ankles = self.ankles(poses)
         # Where each planted ankle goes: its flat foot's ankle where it landed, its sole on the floor (where
         # the other foot held the body up, the root's height alone left it hovering), turned by its roll.
-        headings, rolls, edges = self._headings(poses), self._rolls(), self._edges()
+        headings, rolls, edges = self._headings(poses), self._rolls(), self.edges
         flat = {side: edges[side].unrolled(ankles[side], headings[side], rolls[side]) for side in r._lock}
         for side in r._lock:
             flat[side][:, 2] = -edges[side].down
         anchors = {side: np.full((self.frames, 3), np.nan) for side in r._lock}
         shift = np.zeros((self.frames, 3))
         current: dict[str, np.ndarray] = {}
+        carrier: list[str | None] = []  # per frame, the first planted foot (left before right): it carries the body
         for t in range(self.frames):
             planted = [s for s in r._lock if contacts.get(s) is not None and contacts[s][t]]
             for side in list(current):
@@ -460,13 +462,12 @@ class ClipSolver:
             for side in planted:  # a foot lands: its anchor is where it is (its sole on the floor), unshifted
                 current.setdefault(side, flat[side][t].copy())
                 anchors[side][t] = current[side]
+            carrier.append(planted[0] if planted else None)
         for side in r._lock:
             anchors[side] = edges[side].rolled(anchors[side], headings[side], rolls[side])
-        for t in range(self.frames):
-            planted = [s for s in r._lock if contacts.get(s) is not None and contacts[s][t]]
-            if planted:  # the first planted foot (left before right) carries the body
-                drift = anchors[planted[0]][t] - ankles[planted[0]][t]
-                shift[t, :2] = drift[:2]
+        for t, side in enumerate(carrier):
+            if side is not None:
+                shift[t, :2] = (anchors[side][t] - ankles[side][t])[:2]
         # The drift taken out smoothly: frame-by-frame corrections would shake the body (its centre of mass
         # accelerating at 5-9 m/s^2 in the library walk); the legs' program keeps the planted feet on their anchors.
         shift = smooth(shift, fps, DRIFT_SMOOTHING)
@@ -484,7 +485,8 @@ class ClipSolver:
     def _rolls(self) -> dict[str, np.ndarray]:
         return {side: self.rolls.get(side, np.zeros(self.frames)) for side in self.r._lock}
 
-    def _edges(self) -> dict[str, SoleEdges]:
+    @cached_property
+    def edges(self) -> dict[str, SoleEdges]:
         """Each sole's edges from its ankle, from the standing pose (its feet flat)."""
         r = self.r
         pose = r.tree.forward(r.embodiment.standing_pose)
@@ -533,6 +535,7 @@ class ClipSolver:
         both legs, the first at `poses` (the body's, at q)."""
         r, program = self.r, self.lock
         planted = {side: ~np.isnan(anchor[:, 0]) for side, anchor in anchors.items()}
+        rolls = self._rolls()
         for iteration in range(r.options.lock_iterations):
             if iteration:
                 poses = self._poses(q, rotations, positions)
@@ -544,7 +547,7 @@ class ClipSolver:
                 foot_link = r._link_of(f"{side}_toe")
                 heading = heading_rotation(poses.rotations[:, foot_link])
                 # The sole level, or turned about its edge by the foot's roll (`foot_roll`).
-                turn = axis_angles(heading[:, :, 1], self._rolls()[side])
+                turn = axis_angles(heading[:, :, 1], rolls[side])
                 level = turn @ heading @ r.rest_frames[f"{side}_foot"]
                 target = np.where(planted[side][:, None], anchors[side], 0.0)
                 rows = [row for part in self.leg_parts[side] for row in self._rows(part, joints, fixed, q, poses)]
@@ -774,10 +777,9 @@ def _retarget_solved(
     # After a coarse pass, the legs' program alone solves the legs over all frames.
     solver = ClipSolver(r, frames, legs=not coarse_pass)
     if r.legged and solver.plants_feet:
-        edges = solver._edges()
         for side, (way, rise) in foot_rolls(src, src_frames, contacts).items():
-            if side in edges:
-                solver.rolls[side] = edges[side].rolls_rising(ratio * rise, way)
+            if side in solver.edges:
+                solver.rolls[side] = solver.edges[side].rolls_rising(ratio * rise, way)
     fixed = solver.source_targets(src, src_frames)
     if coarse_pass:
         coarse = np.unique(np.r_[np.arange(0, frames, stride), frames - 1])

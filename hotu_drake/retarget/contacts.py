@@ -8,9 +8,9 @@ from hotu_drake.retarget.tree import Pose, Tree
 CONTACT_HEIGHT = 0.04  # m above the clip's floor
 CONTACT_SPEED = 0.12  # m/s horizontal, of the foot's stiller end (the ankle's landmark or the toe's)
 # m/s: a planted foot stays planted, low, until its stiller end moves this fast (and from when it moved this
-# slowly before landing). A capture's toe landmark
-# (on top of the toes, which bend as the heel rises over them) moves at 0.1-0.4 m/s before the toes leave the
-# floor: at CONTACT_SPEED the Qualisys walk had no double support, 5-7 frames with no foot down at each step.
+# slowly before landing). A capture's toe landmark (on top of the toes, which bend as the heel rises over them)
+# moves at 0.1-0.4 m/s before the toes leave the floor: at CONTACT_SPEED the Qualisys walk had no double
+# support, 5-7 frames with no foot down at each step.
 RELEASE_SPEED = 0.3
 MIN_PHASE_FRAMES = 3
 MIN_PHASE_SECONDS = 0.05  # and no contact or flight phase shorter than this (but at the clip's ends)
@@ -97,6 +97,12 @@ class Soles:
         link, points, radii = self.feet[side]
         z = pose.positions[link][2] + points @ pose.rotations[link][2]
         return float(np.min(z - radii))
+
+    def points_frames(self, poses: Pose, side: str) -> tuple[np.ndarray, np.ndarray]:
+        """A sole's contact points in the world (T, K, 3) for every frame of
+        `poses` (`Tree.forward_frames`), and their radii (K,)."""
+        link, points, radii = self.feet[side]
+        return poses.positions[:, link, None, :] + np.einsum("tij,kj->tki", poses.rotations[:, link], points), radii
 
     def lowest_frames(self, poses: Pose, side: str) -> np.ndarray:
         """`lowest` for every frame of `poses` (`Tree.forward_frames`): (T,)."""

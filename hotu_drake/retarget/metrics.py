@@ -153,8 +153,7 @@ def planted_sole_slip(emb: embodiments.Embodiment, tree: Tree, clip: MotionClip,
     for side, planted in contacts.items():
         if side not in soles.feet:
             continue
-        link, points, radii = soles.feet[side]
-        world = poses.positions[:, link, None, :] + np.einsum("tij,kj->tki", poses.rotations[:, link], points)
+        world, radii = soles.points_frames(poses, side)
         speed = np.linalg.norm(finite_difference(world[..., :2], clip.fps), axis=-1)  # (T, K)
         down = world[..., 2] - radii < ON_FLOOR
         frames = np.asarray(planted, bool) & down.any(axis=1)
