@@ -584,11 +584,13 @@ def balance(
     (the legs do not move quite as a translated body would, and the feet
     may settle by a few millimetres), while fewer than `ENOUGH_INSIDE` of
     the supported frames are inside and the filter's shift would bring at
-    least `WORTH_A_ROUND` more of them inside; the body moves
-    `balance.MOST_MOVED` at most. On a clip solved on some of its frames
-    (`own_rate`), the centre of pressure is that of the clip brought back
-    to its own rate, at the solved frames. Returns the root positions and
-    the support margins (m, per frame) before and after."""
+    least `WORTH_A_ROUND` more of them inside; a round after which fewer
+    are inside is undone, and one that gained less than `WORTH_A_ROUND` is
+    the last. The body moves `balance.MOST_MOVED` at most. On a clip solved
+    on some of its frames (`own_rate`), the support and the centre of
+    pressure are those of the clip brought back to its own rate, every
+    frame of it. Returns the root positions (solved frames) and the support
+    margins (m, per frame of the clip) before and after."""
     dynamics = solver.r.balance
     bearing = contacts if bearing is None else bearing
     rate, solved = (fps, slice(None)) if own_rate is None else (own_rate.fps, own_rate.solved)
@@ -720,8 +722,8 @@ def retarget_clip(
     frame (`solved_frames`), the last one included, and brought back to its
     own rate (`OwnRate`). A human clip is low-passed to about 8 Hz first, so
     a 60 fps solve keeps what it has; the support margins
-    (`retargeter.margins`) are the solved frames', each frame taking its
-    nearest solved frame's.
+    (`retargeter.margins`) are the balance pass's, measured on the clip at
+    its own rate.
     """
     r = retargeter
     frames = len(next(iter(src.values())))
@@ -750,6 +752,9 @@ class OwnRate:
     1 cm (median) to 10 cm near a landing."""
 
     def __init__(self, retargeter, solved: np.ndarray, fps: float, bearing: dict, base, rotations, positions):
+        """`bearing`: the clip's foot contacts at every frame (the support the
+        balance pass measures); `base`, `rotations`, `positions`: the source's
+        root path at every frame (`Retargeter.root_path`)."""
         self.r, self.solved, self.fps, self.bearing = retargeter, solved, fps, bearing
         self.base, self.rotations, self.positions = base, rotations, positions
         self.frames = len(rotations)
@@ -757,6 +762,7 @@ class OwnRate:
         self.fingers = sorted({j for part in parts if part.level == FINGER_LEVEL for j in part.problem.joints})
 
     def joints(self, q_solved: np.ndarray) -> np.ndarray:
+        """Joint positions at every frame, within the joints' limits."""
         everywhere = np.arange(self.frames)
         q = np.empty((self.frames, q_solved.shape[1]))
         rest = np.setdiff1d(np.arange(q.shape[1]), self.fingers)
