@@ -374,7 +374,7 @@ def balancing_shift(
     pressure = np.where(usable[:, None], pressure, 0.0)
     height = np.where(usable, pendulum_height(com, fps), 0.0)
     pressure_of_shift = (sp.identity(frames, format="csr") - sp.diags(height) @ second_rate_matrix(frames, fps)).tocsr()
-    checked = usable & (np.arange(frames) % max(1, int(round(fps / CHECK_RATE))) == 0)
+    checked = usable & (np.arange(frames) % max(1, int(np.ceil(fps / CHECK_RATE))) == 0)
     rows, normals, bounds = _support_rows(support, pressure, checked)
     if not len(rows):
         return np.zeros((frames, 2))

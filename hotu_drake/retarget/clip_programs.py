@@ -28,7 +28,7 @@ or rolled over its edge as the source's (`foot_roll`), over each contact
 phase, along with the legs' own targets.
 
 A clip faster than 60 fps (`RetargetOptions.solve_rate`) is solved on
-every k-th frame and interpolated back to its own rate (`retarget_clip`).
+every k-th frame and interpolated back to its own rate (`OwnRate`).
 
 Balance (`balance`, on legged robots with a floating base): the body is
 shifted sideways so that the clip's centre of pressure comes inside its
@@ -63,10 +63,10 @@ from hotu_drake.rotations import heading_rotation, normalize
 # s: the Gaussian sigma over which the root's drift correction (planted feet kept where they landed) is averaged.
 DRIFT_SMOOTHING = 0.06
 # The balance pass: at most this many rounds of the ZMP filter's program and the legs' program; a round
-# after the first only while less than ENOUGH_INSIDE of the supported frames are inside, and only kept
-# while it brings WORTH_A_ROUND more of them inside. The Qualisys walk's UDH takes five (0.96 inside; two
-# left it at 0.90); at 0.98 CMU 01_01's NAVIAI took a third round its legs did not follow (0.97 before
-# and after, its stage 0.5 -> 1.0 s).
+# after the first only while less than ENOUGH_INSIDE of the supported frames are inside; a round after
+# which fewer are inside is undone, one that brings fewer than WORTH_A_ROUND more inside is the last.
+# The Qualisys walk's UDH takes five (0.96 inside; two left it at 0.90); at 0.98 CMU 01_01's NAVIAI took
+# a third round its legs did not follow (0.97 before and after, its stage 0.5 -> 1.0 s).
 BALANCE_ROUNDS = 6
 ENOUGH_INSIDE = 0.97
 WORTH_A_ROUND = 0.01
@@ -572,7 +572,6 @@ def balance(
     contacts: dict,
     fixed: dict,
     fps: float,
-    bearing: dict | None = None,
     own_rate: OwnRate | None = None,
 ) -> tuple[np.ndarray, dict]:
     """The balance pass: the body shifted so that the clip's centre of
@@ -592,17 +591,16 @@ def balance(
     frame of it. Returns the root positions (solved frames) and the support
     margins (m, per frame of the clip) before and after."""
     dynamics = solver.r.balance
-    bearing = contacts if bearing is None else bearing
-    rate, solved = (fps, slice(None)) if own_rate is None else (own_rate.fps, own_rate.solved)
+    own_fps, solved = (fps, slice(None)) if own_rate is None else (own_rate.fps, own_rate.solved)
 
     def measured(positions):
-        """The support, centre of mass and centre of pressure of the body at `positions`, at `rate`."""
+        """The support, centre of mass and centre of pressure of the body at `positions`, at `own_fps`."""
         if own_rate is None:
             poses = dynamics.poses(q, rotations, positions)
-            return dynamics.support(poses, bearing), *dynamics.centroidal(poses, fps)
+            return dynamics.support(poses, contacts), *dynamics.centroidal(poses, fps)
         q_own = own_rate.joints(q)
         poses = dynamics.poses(q_own, own_rate.rotations, own_rate.root(q_own, positions))
-        return dynamics.support(poses, own_rate.bearing), *dynamics.centroidal(poses, rate)
+        return dynamics.support(poses, own_rate.contacts), *dynamics.centroidal(poses, own_fps)
 
     support, com, pressure = measured(positions)  # where the planted feet are, and will be put back
     margins = {"before": support.margin(pressure)}
@@ -614,8 +612,9 @@ def balance(
     for index in range(BALANCE_ROUNDS):
         if index and (share is None or share >= ENOUGH_INSIDE):  # (no supported frame: nothing to move)
             break
-        shift = balancing_shift(support, com, pressure, rate, moved=total * carried)
-        if index and inside_share(support.margin(shifted_pressure(com, pressure, shift, rate))) < share + WORTH_A_ROUND:
+        shift = balancing_shift(support, com, pressure, own_fps, moved=total * carried)
+        promised = inside_share(support.margin(shifted_pressure(com, pressure, shift, own_fps)))
+        if index and promised < share + WORTH_A_ROUND:
             break  # the legs' program is the round's cost: not for what the filter itself says gains little
         shift = np.clip(total + shift / carried, -MOST_MOVED, MOST_MOVED) - total
         if not np.any(np.abs(shift) > 1e-4):
@@ -625,8 +624,8 @@ def balance(
         on_solved = np.c_[shift[solved], np.zeros(len(q))]
         positions = solver.move_body(q, rotations, positions, contacts, staying, on_solved, ankles, fps)
         support, moved_com, pressure = measured(positions)
-        share = inside_share(support.margin(pressure))
-        if index and (share is None or share < last[-1]):  # the legs did not follow the filter: the round undone
+        share, before = inside_share(support.margin(pressure)), -1.0 if last[-1] is None else last[-1]
+        if share is None or share < before:  # the legs did not follow the filter: the round undone
             positions, q[:], support, pressure, share = last
             break
         total += shift
@@ -634,7 +633,7 @@ def balance(
         if moved > MEASURABLE**2 * len(com):  # a round that hardly moved the body says little about how it follows
             carried = float(np.clip(np.sum((moved_com[:, :2] - com[:, :2]) * shift) / moved, *CARRIED))
         com = moved_com
-        if index and share < last[-1] + WORTH_A_ROUND:
+        if share < before + WORTH_A_ROUND:
             break
     margins["after"] = support.margin(pressure)
     return positions, margins
@@ -732,9 +731,8 @@ def retarget_clip(
         return _retarget_solved(r, src, src_frames, contacts, ratio, fps)
     on_solved = (_take(src, solved), _take(src_frames, solved), contacts_on(contacts, solved))
     rate = fps * (len(solved) - 1) / (frames - 1)
-    bearing = {side: np.asarray(flags, bool)[solved] for side, flags in contacts.items()}
     own_rate = OwnRate(r, solved, fps, contacts, *r.root_path(src, src_frames, ratio))
-    q_solved, _, positions_solved = _retarget_solved(r, *on_solved, ratio, rate, bearing, own_rate)
+    q_solved, _, positions_solved = _retarget_solved(r, *on_solved, ratio, rate, own_rate)
     q = own_rate.joints(q_solved)
     positions = own_rate.root(q, positions_solved)
     return q, own_rate.rotations, positions
@@ -751,11 +749,11 @@ class OwnRate:
     capture's 200 fps the solved frames' own estimate differed from it by
     1 cm (median) to 10 cm near a landing."""
 
-    def __init__(self, retargeter, solved: np.ndarray, fps: float, bearing: dict, base, rotations, positions):
-        """`bearing`: the clip's foot contacts at every frame (the support the
+    def __init__(self, retargeter, solved: np.ndarray, fps: float, contacts: dict, base, rotations, positions):
+        """`contacts`: the clip's foot contacts at every frame (the support the
         balance pass measures); `base`, `rotations`, `positions`: the source's
         root path at every frame (`Retargeter.root_path`)."""
-        self.r, self.solved, self.fps, self.bearing = retargeter, solved, fps, bearing
+        self.r, self.solved, self.fps, self.contacts = retargeter, solved, fps, contacts
         self.base, self.rotations, self.positions = base, rotations, positions
         self.frames = len(rotations)
         parts = retargeter.parts
@@ -811,7 +809,6 @@ def _retarget_solved(
     contacts: dict,
     ratio: float,
     fps: float,
-    bearing: dict | None = None,
     own_rate: OwnRate | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """`retarget_clip` on every frame it is given.
@@ -865,6 +862,6 @@ def _retarget_solved(
     if r.legged:
         positions = solver.plant_feet(q, rotations, positions, contacts, fixed, fps)
         if options.balance and r.spec.floating_base and solver.plants_feet and contacts:
-            positions, r.margins = balance(solver, q, rotations, positions, contacts, fixed, fps, bearing, own_rate)
+            positions, r.margins = balance(solver, q, rotations, positions, contacts, fixed, fps, own_rate)
     np.clip(q, lower, upper, out=q)
     return q, rotations, positions
