@@ -20,7 +20,7 @@ from hotu_drake.retarget.neutral import calibrate
 from hotu_drake.retarget.retargeter import Retargeter, foot_contacts_of, whole_finger_points
 from hotu_drake.retarget.source_frames import source_frames
 from hotu_drake.retarget.stance import leg_contacts, stance
-from hotu_drake.retarget.tree import Tree
+from hotu_drake.retarget.tree import Pose, Tree
 from hotu_drake.rotations import finite_difference, heading_rotation, quat_to_matrix, rotation_log
 
 # The segment that shows each part's posture (torso and neck: a body frame).
@@ -71,14 +71,17 @@ def _margin_figures(margins: np.ndarray) -> dict:
     }
 
 
-def balance_figures(emb: embodiments.Embodiment, clip: MotionClip, contacts: dict, before=None) -> dict:
+def balance_figures(
+    emb: embodiments.Embodiment, clip: MotionClip, contacts: dict, before=None, poses: Pose | None = None
+) -> dict:
     """The clip's centre-of-pressure margin inside its planted soles (share of
     the frames with a foot down where it is inside, median, least; before the
     balance pass too when given) and the torques it asks of each joint
     against its limit (share of frames over any limit; each joint over its
-    limit: on what share of frames, and by how much at most)."""
+    limit: on what share of frames, and by how much at most). `poses`: the
+    clip's (`clip_poses`), if already posed."""
     dynamics = ClipBalance(emb)
-    poses = dynamics.poses(clip.joint_positions, quat_to_matrix(clip.root_quaternion), clip.root_position)
+    poses = clip_poses(dynamics.tree, clip) if poses is None else poses
     _, pressure = dynamics.centroidal(poses, clip.fps)
     margins = dynamics.support_margin(poses, pressure, contacts)
     margin = {"after": _margin_figures(margins)}
@@ -101,12 +104,19 @@ def balance_figures(emb: embodiments.Embodiment, clip: MotionClip, contacts: dic
     }
 
 
-def planted_sole_tilt(emb: embodiments.Embodiment, tree: Tree, clip: MotionClip, contacts: dict) -> dict:
+def clip_poses(tree: Tree, clip: MotionClip) -> Pose:
+    """Every link's pose on every frame of `clip` (one vectorised pass)."""
+    return tree.forward_frames(clip.joint_positions, quat_to_matrix(clip.root_quaternion), clip.root_position)
+
+
+def planted_sole_tilt(
+    emb: embodiments.Embodiment, tree: Tree, clip: MotionClip, contacts: dict, poses: Pose | None = None
+) -> dict:
     """How far (degrees) each planted foot's sole is from flat on the floor,
     median and most over the planted frames: a robot stands on a flat sole
     (every shipped foot's sole is flat in its link's frame), not on a heel
-    with its toes up."""
-    poses = tree.forward_frames(clip.joint_positions, quat_to_matrix(clip.root_quaternion), clip.root_position)
+    with its toes up. `poses`: the clip's (`clip_poses`), if already posed."""
+    poses = clip_poses(tree, clip) if poses is None else poses
     tilts = []
     for side, planted in contacts.items():
         link = tree.link_index[emb.key_bodies[f"{side}_foot"]]
@@ -118,13 +128,15 @@ def planted_sole_tilt(emb: embodiments.Embodiment, tree: Tree, clip: MotionClip,
     return {"median": round(float(np.median(tilt)), 2), "most": round(float(tilt.max()), 2)}
 
 
-def planted_sole_height(emb: embodiments.Embodiment, tree: Tree, clip: MotionClip, contacts: dict) -> dict:
+def planted_sole_height(
+    emb: embodiments.Embodiment, tree: Tree, clip: MotionClip, contacts: dict, poses: Pose | None = None
+) -> dict:
     """How high (m) a planted foot's lowest sole point is above the floor,
     median and most over the planted frames, and the share of those frames
     more than `PLANTED_HIGH` up: a foot the clip says stands is on the floor,
     not hovering (a controller that trusts the flag stands on air)."""
     soles = Soles(emb.spec, tree)
-    poses = tree.forward_frames(clip.joint_positions, quat_to_matrix(clip.root_quaternion), clip.root_position)
+    poses = clip_poses(tree, clip) if poses is None else poses
     heights = [
         soles.lowest_frames(poses, side)[np.asarray(planted, bool)]
         for side, planted in contacts.items()
@@ -140,7 +152,9 @@ def planted_sole_height(emb: embodiments.Embodiment, tree: Tree, clip: MotionCli
     }
 
 
-def planted_sole_slip(emb: embodiments.Embodiment, tree: Tree, clip: MotionClip, contacts: dict) -> float | None:
+def planted_sole_slip(
+    emb: embodiments.Embodiment, tree: Tree, clip: MotionClip, contacts: dict, poses: Pose | None = None
+) -> float | None:
     """How fast (m/s, horizontally) a planted foot's sole slides where it is
     on the floor: per planted frame, the mean speed of its sole points within
     `balance.ON_FLOOR` of the floor (a flat sole's every point, a rolling
@@ -148,7 +162,7 @@ def planted_sole_slip(emb: embodiments.Embodiment, tree: Tree, clip: MotionClip,
     toes is not slipping though its ankle moves (`foot_skate_m_per_s`, the
     ankle's speed, counts it)."""
     soles = Soles(emb.spec, tree)
-    poses = tree.forward_frames(clip.joint_positions, quat_to_matrix(clip.root_quaternion), clip.root_position)
+    poses = clip_poses(tree, clip) if poses is None else poses
     speeds = []
     for side, planted in contacts.items():
         if side not in soles.feet:
@@ -245,17 +259,12 @@ def report(
         planted = np.concatenate(speeds)
         out["foot_skate_m_per_s"] = round(float(planted.mean()), 4) if planted.size else 0.0
         tree = Tree(emb.spec)
-        soles = Soles(emb.spec, tree)
-        rotations = quat_to_matrix(result.root_quaternion)
-        lowest = min(
-            soles.lowest(tree.forward(result.joint_positions[t], rotations[t], result.root_position[t]), side)
-            for t in range(frames_count)
-            for side in soles.feet
-        )
+        soles, poses = Soles(emb.spec, tree), clip_poses(tree, result)
+        lowest = min(float(soles.lowest_frames(poses, side).min()) for side in soles.feet)
         out["foot_penetration_m"] = round(max(0.0, -lowest), 4)
-        out["planted_sole_tilt_deg"] = planted_sole_tilt(emb, tree, result, contacts)
-        out["planted_sole_height_m"] = planted_sole_height(emb, tree, result, contacts)
-        out["planted_sole_slip_m_per_s"] = planted_sole_slip(emb, tree, result, contacts)
+        out["planted_sole_tilt_deg"] = planted_sole_tilt(emb, tree, result, contacts, poses)
+        out["planted_sole_height_m"] = planted_sole_height(emb, tree, result, contacts, poses)
+        out["planted_sole_slip_m_per_s"] = planted_sole_slip(emb, tree, result, contacts, poses)
         # The robot's own stance (feet apart over its standing width), and its legs clear of each other.
         out["stance_ratio"] = stance(emb, dst)
         depths = leg_contacts(emb).depths(result)
@@ -263,7 +272,7 @@ def report(
         out["leg_penetration_share"] = round(float(np.mean(depths > LEG_PENETRATION_ALLOWED)), 4)
         if emb.floating_base:
             planted = foot_contacts_of(result, result.num_frames) or contacts
-            out |= balance_figures(emb, result, planted, (margins or {}).get("before"))
+            out |= balance_figures(emb, result, planted, (margins or {}).get("before"), poses)
     else:
         out["foot_skate_m_per_s"] = None
         out["foot_penetration_m"] = None
