@@ -18,9 +18,9 @@ from hotu_drake.motion.synthesis import Plan, Step, foot_tracks, path_steps, sta
 
 QUARTER = np.pi / 2
 # rad: how far the fast walk's heels rise as each foot pushes off (the other walks' 0.3). A person's foot
-# leaves the floor steeper the faster they walk; at 0.3 the fast walk's trailing ankle stayed low while
-# 0.54 m behind the pelvis, which the legs' reach then held 6-13 cm below standing, knees bent past what
-# the robots' knees hold.
+# leaves the floor steeper the faster they walk; at 0.3 the fast walk's trailing ankle was 0.11 m up while
+# 0.54 m behind the pelvis, and the legs' reach held the pelvis 6-13 cm below standing, knees bent past
+# what the robots' knees hold (BENCHMARKS.md, issue 28's fifth session).
 FAST_PUSH_OFF = 0.9
 
 
