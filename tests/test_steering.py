@@ -55,6 +55,24 @@ def test_start_stop_starts_and_ends_standing_on_both_feet(clips):
     assert both[:second].all() and both[-second:].all() and not both.all()
 
 
+def test_every_walk_has_a_foot_down_on_every_frame(clips):
+    """A walk is not a run: the fast walk's heels rise quickly enough that the
+    contact test let the pushing foot go a frame before the other landed."""
+    for name, clip in clips.items():
+        down = clip.contact("left_foot").astype(bool) | clip.contact("right_foot").astype(bool)
+        assert down.all(), (name, np.flatnonzero(~down))
+
+
+def test_grounded_contacts_keep_the_pushing_foot_down_through_a_gap():
+    from hotu_drake.motion.library.generate import _grounded
+
+    left = np.array([1, 1, 1, 0, 0, 0, 0, 1], bool)
+    right = np.array([1, 0, 0, 0, 1, 1, 1, 1], bool)
+    filled = _grounded(left, right)
+    np.testing.assert_array_equal(filled["left_foot"], [1, 1, 1, 1, 0, 0, 0, 1])
+    np.testing.assert_array_equal(filled["right_foot"], right)
+
+
 @pytest.mark.parametrize("robot", ["h1", "naviai", "walker", "bruce"])
 def test_the_vocabulary_retargets_to_every_robot_within_limits_and_legs_apart(clips, robot):
     emb = embodiment.load(robot, "none")

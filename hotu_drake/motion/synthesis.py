@@ -414,6 +414,9 @@ class Plan:
     hands: dict[str, HandTarget] = field(default_factory=dict)
     objects: dict[str, np.ndarray] = field(default_factory=dict)  # name -> (T, 7) xyz + wxyz
     contacts: dict[str, np.ndarray] = field(default_factory=dict)  # name -> (T,) bool
+    # A foot is down on every frame (a walk, not a run or a jump): a foot pushing off stays in contact
+    # until the other is down (`generate`'s contacts).
+    grounded: bool = False
 
     @property
     def num_frames(self) -> int:

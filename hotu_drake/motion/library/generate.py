@@ -119,6 +119,19 @@ def _foot_contacts(udh: Embodiment, body: Body, poses: dict, fps: float) -> dict
     return out
 
 
+def _grounded(left: np.ndarray, right: np.ndarray) -> dict[str, np.ndarray]:
+    """Foot contacts with a foot down on every frame after the first: where
+    neither is, the feet down on the frame before stay down (the contact
+    test lets a foot go as its ankle speeds up, while its toes still push
+    off the floor: the fast walk's heels rise quickly enough to leave
+    frames with no foot down, a run's flight, which a walk has not)."""
+    left, right = left.copy(), right.copy()
+    for t in range(1, len(left)):
+        if not left[t] and not right[t]:
+            left[t], right[t] = left[t - 1], right[t - 1]
+    return {"left_foot": left, "right_foot": right}
+
+
 def _to_clip(udh: Embodiment, body: Body, plan: Plan, name: str) -> MotionClip:
     q = realize(body, plan)
     fps = plan.fps
@@ -126,6 +139,8 @@ def _to_clip(udh: Embodiment, body: Body, plan: Plan, name: str) -> MotionClip:
     poses = batch_link_poses(udh.spec, udh.joint_names, q, plan.pelvis_rot, plan.pelvis)
     key_links = list(udh.key_bodies.values())
     contacts = _foot_contacts(udh, body, poses, fps) | plan.contacts
+    if plan.grounded:
+        contacts |= _grounded(contacts["left_foot"], contacts["right_foot"])
     objects = list(plan.objects)
     return MotionClip.from_positions(
         "udh",

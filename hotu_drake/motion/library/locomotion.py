@@ -35,6 +35,7 @@ def walk(sc: Scene) -> Plan:
     steps, _ = path_steps(path, "right", 0.4, step_time, 0.78 * step_time, count, sc.width)
     feet = foot_tracks(sc.t, sc.body, stand(sc), steps)
     base = plan_base(sc, feet, sigma=0.4 * step_time, pitch=0.04, balanced=True)
+    base.plan.grounded = True
     arm_swing(base, step)
     set_joints(base.plan, neck_y=-0.04)
     return base.plan

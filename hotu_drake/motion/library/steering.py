@@ -37,6 +37,7 @@ def _walk_along(
 def _stepping(sc: Scene, steps: list[Step], step: float, step_time: float, swing: bool = True) -> Plan:
     feet = foot_tracks(sc.t, sc.body, stand(sc), steps)
     base = plan_base(sc, feet, sigma=0.4 * step_time, pitch=0.04, balanced=True)
+    base.plan.grounded = True
     if swing:
         arm_swing(base, step)
     set_joints(base.plan, neck_y=-0.04)
