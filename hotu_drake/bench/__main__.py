@@ -15,7 +15,8 @@ python -m hotu_drake.bench readers  [--input FILE ...] [--repeats N]
 python -m hotu_drake.bench clips    [--motions M ...] [--input FILE ...] [--robots NAME ...] [--markdown]
 python -m hotu_drake.bench teacher  [--robot NAME] [--seconds S] [--queries N]
 python -m hotu_drake.bench pushes   [--robots NAME ...] [--momenta KG_M_S ...] [--markdown]
-python -m hotu_drake.bench performs [--robots NAME ...] [--motions M ...] [--input FILE ...] [--seeds N] [--markdown]
+python -m hotu_drake.bench performs [--robots NAME ...] [--motions M ...] [--input FILE ...] [--seeds N]
+                                    [--starts N] [--markdown]
 """
 
 import json
@@ -347,6 +348,7 @@ def _performs(args) -> int:
     for motion in args.motions:
         check_choice(motion, "--motions", MOTIONS)
     check_number(args.seeds, "--seeds", low=0, high=100, integer=True)
+    check_number(args.starts, "--starts", low=1, high=30, integer=True)
     captures = {Path(path).stem: retarget_onto(load_motion(path), args.robots, "none") for path in args.input}
     pin_to_one_core()
     rows = []
@@ -354,7 +356,7 @@ def _performs(args) -> int:
         clips = {motion: library_clip(motion, robot, "none") for motion in args.motions}
         clips |= {stem: stages[robot].clip for stem, stages in captures.items()}
         for motion, clip in clips.items():
-            rows.append(perform_row(robot, motion, clip))
+            rows.append(perform_row(robot, motion, clip, args.starts))
             print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
         if args.seeds and embodiment.load(robot, "none").floating_base:
             rows.append(looped_walk_row(robot, args.seeds))
@@ -509,6 +511,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     performs.add_argument("--input", nargs="*", default=[], help="captures (BVH, C3D) retargeted and performed too")
     performs.add_argument("--seeds", type=int, default=6, help="seeds of the 10 s looped walk (0: none)")
+    performs.add_argument(
+        "--starts", type=int, default=1, help="perform each motion from its first N frames (the table: up of N)"
+    )
     performs.add_argument("--markdown", action="store_true", help="also print a Markdown table on stderr")
     args = parser.parse_args(argv)
     if args.command == "performs":

@@ -1,7 +1,8 @@
 """What the whole-body controller performs: each robot, each motion.
 
 Each library motion once (`physical.perform` on the robot's clip, `loop:
-false`): whether the robot stayed up, its travel against the clip's, the
+false`; `--starts N`: from its first N frames, the table then giving how
+many of the N it stood through): whether the robot stayed up, its travel against the clip's, the
 share of frames with a joint at its torque limit, and, for a robot that
 fell, what in the clip is past it (`Performance.report["cannot"]`). The
 library walk looped for 10 s (`whole_body_walk_<robot>`) from several
@@ -13,12 +14,19 @@ retargeted and performed once.
 from __future__ import annotations
 
 
-def perform_row(robot: str, motion: str, clip) -> dict:
-    """`clip` (the motion on `robot`) performed once."""
+def perform_row(robot: str, motion: str, clip, starts: int = 1) -> dict:
+    """`clip` (the motion on `robot`) performed from its first frame; with
+    `starts` > 1 also from 1 .. starts - 1 frames in (a motion a robot
+    performs from one start and not the next is one it does not yet do:
+    the row's `up_starts` of `starts`, and each start's fall time)."""
     from hotu_drake.physical import perform
     from hotu_drake.retarget.pipeline import has_fingers
 
-    report = perform(clip, "full" if has_fingers(clip) else "none").report
+    hands = "full" if has_fingers(clip) else "none"
+    report = perform(clip, hands).report
+    falls = [report["fell_at_s"]] + [
+        perform(clip.slice(start, clip.num_frames), hands).report["fell_at_s"] for start in range(1, starts)
+    ]
     reference = report["reference_travel_m"]
     return {
         "robot": robot,
@@ -31,6 +39,9 @@ def perform_row(robot: str, motion: str, clip) -> dict:
         "joint_rms_rad": report["joint_rms_rad"],
         "cannot": report["cannot"],
         "wall_time_s": report["wall_time_s"],
+        "starts": starts,
+        "up_starts": sum(fall is None for fall in falls),
+        "fell_at_s_by_start": [None if fall is None else round(fall, 2) for fall in falls],
     }
 
 
@@ -70,6 +81,8 @@ def markdown(rows: list[dict], robots: list[str]) -> str:
                 cells.append("")
             elif "walked" in row:
                 cells.append(f"{row['walked']}/{row['seeds']}")
+            elif row.get("starts", 1) > 1:
+                cells.append(f"{row['up_starts']}/{row['starts']}")
             else:
                 cells.append("up" if row["up"] else f"fell {row['fell_at_s']:.1f} s")
         lines.append(f"| {motion} | " + " | ".join(cells) + " |")
