@@ -180,6 +180,19 @@ def test_cli_writes_clips_report_and_replay(tmp_path):
     assert (tmp_path / "replay.html").stat().st_size > 100_000
 
 
+def test_cli_retargets_a_library_motion_by_name(tmp_path):
+    """An INPUT that is no file but a library motion's name retargets the
+    generated demonstration; a name that is neither is one error line."""
+    out = tmp_path / "out"
+    result = _cli("wave", "walkk", "--robot", "curi", "--hands", "none", "--out", str(out))
+    assert result.returncode == 2
+    errors = [line for line in result.stderr.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and "walkk" in errors[0], result.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["wave_curi.npz"]
+    clip = MotionClip.load(out / "wave_curi.npz")
+    assert clip.embodiment == "curi" and clip.num_frames == generate("wave").num_frames
+
+
 BAD_INPUTS = {
     "truncated.bvh": lambda text: text[: len(text) // 3],
     "malformed.bvh": lambda text: text.replace("Frame Time:", "Frame Time: x", 1),

@@ -6,15 +6,16 @@
                                   [--html FILE.html]
 
 Writes DIR/<clip>_<robot>.npz for every input and robot (human -> UDH ->
-robot). Every output path (the clips, the report, the replays) is checked
-before any work. A bad input is reported in one line and skipped; the
-others are still processed, and the exit code is 2 if any input failed. A
-run whose every input failed writes nothing (no report either), and a
-write that fails removes the run's other outputs. What the readers decided
-(the up axis, the marker set, body parts a capture lacks) is said in
-`note:` lines. With `--physics` each robot's clip is also performed in
-the simulator by the whole-body controller (`hotu_drake.physical`; CURI on
-its wheeled base):
+robot). An INPUT that is no file but a library motion's name (`walk`,
+`box_carry_task@7`) retargets that generated demonstration. Every output
+path (the clips, the report, the replays) is checked before any work. A
+bad input is reported in one line and skipped; the others are still
+processed, and the exit code is 2 if any input failed. A run whose every
+input failed writes nothing (no report either), and a write that fails
+removes the run's other outputs. What the readers decided (the up axis,
+the marker set, body parts a capture lacks) is said in `note:` lines. With
+`--physics` each robot's clip is also performed in the simulator by the
+whole-body controller (`hotu_drake.physical`; CURI on its wheeled base):
 DIR/<clip>_<robot>_physical.npz, its figures under "physics" in the
 report, and the performed robots beside the others in the replay.
 """
@@ -42,7 +43,9 @@ def _parser() -> ArgumentParser:
         prog="python -m hotu_drake.retarget",
         description="Retarget BVH, C3D or .npz demonstrations onto the UDH and the robots (human -> UDH -> robot).",
     )
-    parser.add_argument("inputs", nargs="+", metavar="INPUT", help="BVH, C3D or .npz clip files")
+    parser.add_argument(
+        "inputs", nargs="+", metavar="INPUT", help="BVH, C3D or .npz clip files, or library motions by name (walk)"
+    )
     parser.add_argument("--robot", required=True, help=f"one of {', '.join(TARGETS)}, or all")
     parser.add_argument("--out", required=True, help="output folder for <clip>_<robot>.npz")
     parser.add_argument("--hands", choices=embodiment.HANDS_VARIANTS, default="full", help="finger joints")
@@ -148,13 +151,7 @@ def main(argv: list[str] | None = None) -> int:
     for path in args.inputs:
         stem = Path(path).stem
         try:
-            source = load_motion(
-                path,
-                args.skeleton_map,
-                marker_set=args.marker_set,
-                up=args.up,
-                check_plausible=not args.allow_implausible,
-            )
+            source = _source(path, args)
         except InputError as error:  # a bad input is skipped; the others are still retargeted
             print(f"error: {error}", file=sys.stderr)
             failures.append(str(error))
@@ -184,6 +181,18 @@ def main(argv: list[str] | None = None) -> int:
     written = len(replays) * len(robots) + sum(len(performed) for *_, performed in replays)
     print(f"retargeted {len(replays)} clip(s) onto {', '.join(robots)}: {written} file(s) in {out}", file=sys.stderr)
     return 2 if failures else 0
+
+
+def _source(path: str, args):
+    """The human demonstration an INPUT names: a motion file, or (no such
+    file) a motion of the generated library by name (`walk`, `box_carry_task@7`)."""
+    from hotu_drake.motion.library import generate, is_library_motion
+
+    if not Path(path).exists() and is_library_motion(path):
+        return generate(path)
+    return load_motion(
+        path, args.skeleton_map, marker_set=args.marker_set, up=args.up, check_plausible=not args.allow_implausible
+    )
 
 
 def _step_done(progress: Progress, stem: str, robot: str) -> None:
