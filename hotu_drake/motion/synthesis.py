@@ -415,7 +415,7 @@ class Plan:
     objects: dict[str, np.ndarray] = field(default_factory=dict)  # name -> (T, 7) xyz + wxyz
     contacts: dict[str, np.ndarray] = field(default_factory=dict)  # name -> (T,) bool
     # A foot is down on every frame (a walk, not a run or a jump): a foot pushing off stays in contact
-    # until the other is down (`generate`'s contacts).
+    # until the other is down (`generate`'s contacts; `planning.stepping`, which every walk plans with, sets it).
     grounded: bool = False
 
     @property

@@ -7,10 +7,10 @@ import numpy as np
 from hotu_drake.motion.library.planning import (
     KNEE,
     Scene,
-    arm_swing,
     plan_base,
     set_joints,
     stand,
+    walk_along,
 )
 from hotu_drake.motion.synthesis import (
     GRAVITY,
@@ -20,7 +20,6 @@ from hotu_drake.motion.synthesis import (
     heel_raise,
     hermite,
     keyframes,
-    path_steps,
     ramp,
 )
 from hotu_drake.rotations import rot_y, rot_z
@@ -31,14 +30,7 @@ def walk(sc: Scene) -> Plan:
     step = 0.45 * sc.s * sc.jitter(0.06)
     step_time = 0.55 * sc.jitter(0.05)
     count = max(4, int((sc.duration - 1.0) / step_time + 0.22))
-    path = np.array([[0.0, 0.0, 0.0], [(count - 1) * step, 0.0, 0.0]])
-    steps, _ = path_steps(path, "right", 0.4, step_time, 0.78 * step_time, count, sc.width)
-    feet = foot_tracks(sc.t, sc.body, stand(sc), steps)
-    base = plan_base(sc, feet, sigma=0.4 * step_time, pitch=0.04, balanced=True)
-    base.plan.grounded = True
-    arm_swing(base, step)
-    set_joints(base.plan, neck_y=-0.04)
-    return base.plan
+    return walk_along(sc, np.array([[0.0, 0.0, 0.0], [(count - 1) * step, 0.0, 0.0]]), step, step_time, count)
 
 
 def jump(sc: Scene) -> Plan:

@@ -13,9 +13,12 @@ from hotu_drake.motion.synthesis import (
     Body,
     HandTarget,
     Plan,
+    Step,
     balanced_pelvis_path,
     finger_joints,
+    foot_tracks,
     hand_rotation,
+    path_steps,
     pelvis_over_feet,
     reachable_height,
     smooth_under,
@@ -169,3 +172,26 @@ def fist(plan: Plan, side: str, amount=1.0) -> None:
     """Close a hand into a fist by `amount` (0..1, scalar or (T,))."""
     amount = np.asarray(amount, dtype=float)
     set_hand_shape(plan, side, np.repeat(np.atleast_1d(0.95 * amount)[:, None], 4, 1), 0.6 * amount, 0.7 * amount)
+
+
+def walk_along(
+    sc: Scene, path: np.ndarray, step: float, step_time: float, count: int, first: str = "right", heel: float = 0.3
+) -> Plan:
+    """Steps along a planar path of (x, y, heading) poses from standing, the
+    pelvis balanced over them (`stepping`); each foot pushes off with its
+    heel raised `heel` rad."""
+    steps, _ = path_steps(path, first, 0.4, step_time, 0.78 * step_time, count, sc.width, heel)
+    return stepping(sc, steps, step, step_time)
+
+
+def stepping(sc: Scene, steps: list[Step], step: float, step_time: float, swing: bool = True) -> Plan:
+    """The plan of a walk over `steps`: the feet's tracks, the pelvis planned
+    over them for balance, a foot down on every frame (`Plan.grounded`), the
+    arms swinging with `step` (m) unless not `swing`."""
+    feet = foot_tracks(sc.t, sc.body, stand(sc), steps)
+    base = plan_base(sc, feet, sigma=0.4 * step_time, pitch=0.04, balanced=True)
+    base.plan.grounded = True
+    if swing:
+        arm_swing(base, step)
+    set_joints(base.plan, neck_y=-0.04)
+    return base.plan

@@ -13,8 +13,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from hotu_drake.motion.library.planning import Scene, arm_swing, plan_base, set_joints, stand
-from hotu_drake.motion.synthesis import Plan, Step, foot_tracks, path_steps, stance_pose
+from hotu_drake.motion.library.planning import Scene, stepping, walk_along
+from hotu_drake.motion.synthesis import Plan, Step, path_steps, stance_pose
 
 QUARTER = np.pi / 2
 # rad: how far the fast walk's heels rise as each foot pushes off (the other walks' 0.3). A person's foot
@@ -24,33 +24,13 @@ QUARTER = np.pi / 2
 FAST_PUSH_OFF = 0.9
 
 
-def _walk_along(
-    sc: Scene, path: np.ndarray, step: float, step_time: float, count: int, first: str = "right", heel: float = 0.3
-) -> Plan:
-    """Steps along a planar path of (x, y, heading) poses from standing, the
-    pelvis balanced over them; each foot pushes off with its heel raised
-    `heel` rad."""
-    steps, _ = path_steps(path, first, 0.4, step_time, 0.78 * step_time, count, sc.width, heel)
-    return _stepping(sc, steps, step, step_time)
-
-
-def _stepping(sc: Scene, steps: list[Step], step: float, step_time: float, swing: bool = True) -> Plan:
-    feet = foot_tracks(sc.t, sc.body, stand(sc), steps)
-    base = plan_base(sc, feet, sigma=0.4 * step_time, pitch=0.04, balanced=True)
-    base.plan.grounded = True
-    if swing:
-        arm_swing(base, step)
-    set_joints(base.plan, neck_y=-0.04)
-    return base.plan
-
-
 def walk_fast(sc: Scene) -> Plan:
     """A straight walk with longer, quicker steps (about 1.1 m/s for a 1.75 m person, the walk's 0.8)."""
     step = 0.55 * sc.s * sc.jitter(0.05)
     step_time = 0.5 * sc.jitter(0.05)
     count = max(4, int((sc.duration - 1.0) / step_time + 0.22))
     path = np.array([[0.0, 0.0, 0.0], [(count - 1) * step, 0.0, 0.0]])
-    return _walk_along(sc, path, step, step_time, count, heel=FAST_PUSH_OFF)
+    return walk_along(sc, path, step, step_time, count, heel=FAST_PUSH_OFF)
 
 
 def _arc(radius: float, turn: float, points: int = 24) -> np.ndarray:
@@ -66,7 +46,7 @@ def _walk_turning(sc: Scene, turn: float) -> Plan:
     radius = 1.0 * sc.s
     count = max(4, int(round(abs(turn) * radius / step)) + 1)
     first = "right" if turn > 0 else "left"  # the outer foot leads into a turn
-    return _walk_along(sc, _arc(radius, turn), step, step_time, count, first)
+    return walk_along(sc, _arc(radius, turn), step, step_time, count, first)
 
 
 def walk_turn_left(sc: Scene) -> Plan:
@@ -101,7 +81,7 @@ def _turn_in_place(sc: Scene, turn: float) -> Plan:
             height=0.05,
         )
     )
-    return _stepping(sc, steps, 0.1 * sc.s, step_time, swing=False)
+    return stepping(sc, steps, 0.1 * sc.s, step_time, swing=False)
 
 
 def turn_in_place_left(sc: Scene) -> Plan:
@@ -127,7 +107,7 @@ def _sidestep(sc: Scene, direction: float) -> Plan:
         closed = stance_pose(0.0, y, 0.0, sc.width)[trail]
         steps.append(Step(lead, start, start + 0.78 * step_time, opened, height=0.05))
         steps.append(Step(trail, start + step_time, start + 1.78 * step_time, closed, height=0.05))
-    return _stepping(sc, steps, 0.1 * sc.s, step_time, swing=False)
+    return stepping(sc, steps, 0.1 * sc.s, step_time, swing=False)
 
 
 def sidestep_left(sc: Scene) -> Plan:
@@ -146,7 +126,7 @@ def walk_backward(sc: Scene) -> Plan:
     step_time = 0.6 * sc.jitter(0.05)
     count = max(4, int((sc.duration - 1.0) / step_time + 0.22))
     path = np.array([[0.0, 0.0, 0.0], [-(count - 1) * step, 0.0, 0.0]])
-    return _walk_along(sc, path, step, step_time, count)
+    return walk_along(sc, path, step, step_time, count)
 
 
 def start_stop(sc: Scene) -> Plan:
@@ -156,7 +136,7 @@ def start_stop(sc: Scene) -> Plan:
     steps, _ = path_steps(
         np.array([[0.0, 0.0, 0.0], [3 * step, 0.0, 0.0]]), "right", 1.5, step_time, 0.78 * step_time, 4, sc.width
     )
-    return _stepping(sc, steps, step, step_time)
+    return stepping(sc, steps, step, step_time)
 
 
 # The vocabulary by name, in the order the library lists it.
