@@ -540,13 +540,12 @@ class ClipSolver:
         for iteration in range(r.options.lock_iterations):
             if iteration:
                 poses = self._poses(q, rotations, positions)
-            blocks = []
+            blocks, headings = [], self._headings(poses)
             for side in (s for s in SIDES if s in r._lock):
                 problem, position, orientation = r._lock[side]
                 joints = problem.joints
                 mask = planted[side].astype(float)
-                foot_link = r._link_of(f"{side}_toe")
-                heading = heading_rotation(poses.rotations[:, foot_link])
+                heading = headings[side]
                 # The sole level, or turned about its edge by the foot's roll (`foot_roll`).
                 turn = axis_angles(heading[:, :, 1], rolls[side])
                 level = turn @ heading @ r.rest_frames[f"{side}_foot"]
