@@ -142,6 +142,8 @@ def perform(clip: MotionClip, hands: str = "none", control_rate: float = 60.0, l
         corners, pressure = np.array(record["corners"]), np.array(record["pressure"])
         report["least_pressure_margin_m"] = _least_margin(corners, down, pressure)
     report |= {"fell": fell_at is not None, "fell_at_s": fell_at, "frames": done, "wall_time_s": round(wall, 2)}
+    error = controller.prediction_error()
+    report["com_acceleration_error_m_s2"] = None if error is None else [round(float(e), 3) for e in error]
     torques = np.array(record["torques"])
     saturated = (np.abs(torques) >= SATURATED * emb.effort_limits).mean(axis=0) if len(torques) else None
     report["cannot"] = demands_beyond(clip, emb, saturated) if fell_at is not None else []

@@ -146,6 +146,10 @@ class WholeBodyController(LeafSystem):
         # Wall seconds in `act` and in its QP's solve, the calls, and the solves that failed (the last good one used).
         self.timings = {"act": 0.0, "qp": 0.0, "calls": 0, "failures": 0}
         self.last_action: np.ndarray | None = None
+        # The QP's model checked against what the robot did: at each control step that follows the last by one
+        # period, the CoM acceleration the last solution predicted less the one the robot had (`prediction_error`).
+        self._predicted: tuple[float, np.ndarray, np.ndarray] | None = None  # time, CoM velocity, its prediction
+        self._prediction_errors: list[np.ndarray] = []
         n = len(embodiment.joint_names)
         self._state = self.DeclareVectorInputPort("state", plant.num_multibody_states())
         standing = np.r_[embodiment.standing_pose, np.zeros(n), np.zeros(n)]
@@ -197,6 +201,7 @@ class WholeBodyController(LeafSystem):
         self._goal_accelerations = plant.CalcSpatialAccelerationsFromVdot(
             self._reference, self._reference_accelerations
         )
+        self._check_prediction(time)
         planted = self.planted(time)
         self._footing(planted)
         tasks = self.tasks(time, planted)
@@ -207,6 +212,7 @@ class WholeBodyController(LeafSystem):
             self.timings["failures"] += 1
             solution = Solution(self.last.accelerations, self.last.forces, self.last.torques, False)
         self.last = solution
+        self._predict(time)
         q, v = x[self._q], x[self._v]
         a, dt, n = solution.accelerations[self._actuated_v], self.plant_step, self._steps
         # Held over n implicit steps of dt, the PD's mean torque is u when the joints move as predicted
@@ -223,6 +229,41 @@ class WholeBodyController(LeafSystem):
         self.timings["calls"] += 1
         return self.last_action
 
+    def prediction_error(self) -> np.ndarray | None:
+        """The median (m/s^2, world x, y, z; over the control steps since
+        `reset`, None before two) of how far the CoM acceleration each
+        solution predicted was from the one the robot had over the next
+        period, in a run the controller drives: where the QP's model of the
+        robot and its contacts is wrong (H1's sideways, its soles unable to
+        roll as the QP lets them). The median, as a landing's impact is no
+        error of the model's."""
+        if not self._prediction_errors:
+            return None
+        return np.median(np.abs(self._prediction_errors), axis=0)
+
+    def _com_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        plant, context, world = self._plant, self._context, self._plant.world_frame()
+        kv = JacobianWrtVariable.kV
+        return (
+            plant.CalcJacobianCenterOfMassTranslationalVelocity(context, kv, world, world),
+            plant.CalcBiasCenterOfMassTranslationalAcceleration(context, kv, world, world),
+        )
+
+    def _predict(self, time: float) -> None:
+        """Keep the CoM velocity now and the acceleration the solution predicts (`prediction_error`)."""
+        jacobian, bias = self._com_rows()
+        velocity = jacobian @ self._plant.GetVelocities(self._context)
+        self._predicted = (time, velocity, jacobian @ self.last.accelerations + bias)
+
+    def _check_prediction(self, time: float) -> None:
+        """With the state set in the controller's context: one period after the last
+        step, what the robot's CoM did against what that step's solution predicted."""
+        if self._predicted is None or abs(time - self._predicted[0] - self.period) > 1e-6:
+            return  # not the next control step (a teacher asked about some other state)
+        jacobian, _ = self._com_rows()
+        realized = (jacobian @ self._plant.GetVelocities(self._context) - self._predicted[1]) / self.period
+        self._prediction_errors.append(self._predicted[2] - realized)
+
     def reference_travel(self, duration: float) -> float:
         """How far (m, horizontally) the clip's pelvis moves over `duration` s
         from the controller's start (a loop carrying its root motion on)."""
@@ -238,6 +279,7 @@ class WholeBodyController(LeafSystem):
         """Forget what the controller carried from step to step (the QP's warm
         start, where the feet stood): a new episode."""
         self._shift = np.zeros(3)
+        self._predicted, self._prediction_errors = None, []
         self.qp.reset()
 
     def _accelerations_at(self, time: float) -> np.ndarray:
