@@ -57,6 +57,7 @@ class TrackingGains:
 CONTROL_LEAD = 1e-6  # s: how long before the plant's step the controller acts (`WholeBodyController`)
 STEP_LOOK_AHEAD = 0.15  # s: how far ahead a swing foot's step is placed for the capture point's growth
 TOUCHING = 0.01  # m: a sole with a corner this close to the floor is down
+ROLL_AXIS = 0.7  # a joint whose axis is this near a foot's length (cosine) turns the foot about it
 LANDING_DEPTH = 0.005  # m: a foot the clip has down that is not yet down is drawn this far below the floor
 FOOTING_EASING = 0.6  # s: the time constant over which the tracked clip moves to where the feet stand
 
@@ -130,6 +131,7 @@ class WholeBodyController(LeafSystem):
             raise RuntimeError(f"{embodiment.name}: actuator order differs from the spec's joint order")
         self._q, self._v = actuated_state_indices(plant, self._model, embodiment.joint_names)
         self._actuated_v = self._v - plant.num_positions()  # the joints' rows of vdot
+        self._roll_with_leg = {name: self._rolls_with_leg(sole.body) for name, sole in self._soles.items()}
         # The posture task's Jacobian: it selects the joints' rows of vdot.
         self._joint_rows = np.zeros((len(self._actuated_v), plant.num_velocities()))
         self._joint_rows[np.arange(len(self._actuated_v)), self._actuated_v] = 1.0
@@ -146,6 +148,7 @@ class WholeBodyController(LeafSystem):
         # Wall seconds in `act` and in its QP's solve, the calls, and the solves that failed (the last good one used).
         self.timings = {"act": 0.0, "qp": 0.0, "calls": 0, "failures": 0}
         self.last_action: np.ndarray | None = None
+        self.swing_goals: dict[str, np.ndarray] = {}  # where each swing foot was last sent (world, its origin)
         # The QP's model checked against what the robot did: at each control step that follows the last by one
         # period, the CoM acceleration the last solution predicted less the one the robot had (`prediction_error`).
         self._predicted: tuple[float, np.ndarray, np.ndarray] | None = None  # time, CoM velocity, its prediction
@@ -161,6 +164,23 @@ class WholeBodyController(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(control_period, control_period - CONTROL_LEAD, self._Update)
         self.DeclareVectorOutputPort("desired_state", 2 * n, self._CalcDesiredState, {self.xd_ticket()})
         self.DeclareVectorOutputPort("torques", n, self._CalcTorques, {self.xd_ticket()})
+
+    def _rolls_with_leg(self, foot) -> bool:
+        """Whether a foot turns about its length only as its leg leans: fewer
+        than two joints between it and the body turn it about that axis (a hip
+        roll and no ankle roll: H1, BRUCE), read from the foot's rotational
+        Jacobian in the standing pose. A swing task asking such a foot to be
+        level and at its sideways place asks the hip's roll for both, and the
+        compromise landed H1's feet 9 cm off (its walk drifting sideways)."""
+        plant, scratch = self._plant, self._plant.CreateDefaultContext()
+        positions = plant.GetPositions(scratch)
+        positions[self._q] = self.embodiment.standing_pose
+        plant.SetPositions(scratch, positions)
+        world = plant.world_frame()
+        axes = plant.CalcJacobianAngularVelocity(scratch, JacobianWrtVariable.kV, foot.body_frame(), world, world)
+        along = plant.EvalBodyPoseInWorld(scratch, foot).rotation().matrix()[:, 0]
+        turning = np.abs(along @ axes[:, self._actuated_v]) > ROLL_AXIS
+        return int(turning.sum()) < 2
 
     @property
     def soles(self) -> dict[str, Sole]:
@@ -368,6 +388,7 @@ class WholeBodyController(LeafSystem):
         capture = (com[:2] - shift[:2] - planned) + (com_velocity[:2] - planned_velocity) / frequency
         offset = shift + gains.step_adjustment * np.append(capture, 0.0)
         landing = self.plan.planted(time)
+        self.swing_goals = {}
         for name, sole in self._soles.items():
             if not planted.get(name):
                 # Where the capture point will be as the foot lands (its error grows as exp(frequency t)),
@@ -380,6 +401,14 @@ class WholeBodyController(LeafSystem):
                     lowest = plant.EvalBodyPoseInWorld(reference, sole.body).multiply(sole.corners.T)[2].min()
                     goal = goal - [0.0, 0.0, lowest + LANDING_DEPTH]
                 jacobian, bias, target = self._body_rows(sole.body, gains.swing_stiffness, position=True, offset=goal)
+                if self._roll_with_leg[name]:  # its roll is the leg's: only its pitch and yaw asked
+                    across = plant.EvalBodyPoseInWorld(context, sole.body).rotation().matrix()[:, 1:].T
+                    jacobian, bias, target = (
+                        np.vstack([across @ jacobian[:3], jacobian[3:]]),
+                        np.concatenate([across @ bias[:3], bias[3:]]),
+                        np.concatenate([across @ target[:3], target[3:]]),
+                    )
+                self.swing_goals[name] = plant.EvalBodyPoseInWorld(reference, sole.body).translation() + goal
                 tasks.append(Task(jacobian, bias, target, gains.swing_weight))
         return tasks
 
