@@ -226,14 +226,15 @@ def test_a_foot_that_rolls_with_its_leg_lands_where_it_is_sent():
     """H1's and BRUCE's feet turn about their length only as their legs lean
     (a hip roll, no ankle roll), so their swing task leaves that roll to the
     leg; the other robots' feet are asked to be level. H1 walking lands each
-    swing foot within 4 cm sideways of where the controller last sent it
-    (asked to be level too, its feet landed 8-11 cm off, all to the same
-    side, and the walk drifted sideways)."""
+    swing foot after the first within 4 cm sideways of where the controller
+    last sent it (the first, from standing, about 5 cm off either way).
+    Asked to be level too, its feet landed 3-7 cm off here (8-11 cm in the
+    looped walk), all to the same side, and its walk drifted sideways."""
     rolling = {}
-    for robot in ("h1", "bruce", "walker", "udh"):
+    for robot in ("h1", "bruce", "walker", "udh", "naviai"):
         controller = WholeBodyController(embodiment.load(robot, "none"), library_clip("squat", robot, "none"), 1 / 60)
-        rolling[robot] = set(controller._roll_with_leg.values())
-    assert rolling == {"h1": {True}, "bruce": {True}, "walker": {False}, "udh": {False}}
+        rolling[robot] = set(controller._roll_follows_leg.values())
+    assert rolling == {"h1": {True}, "bruce": {True}, "walker": {False}, "udh": {False}, "naviai": {False}}
 
     sim = build_simulation(
         Scenario(
@@ -246,14 +247,14 @@ def test_a_foot_that_rolls_with_its_leg_lands_where_it_is_sent():
     controller, plant, model = sim.systems["whole_body_controller"], sim.plant, sim.model
     feet = {name: plant.GetBodyByName(sole.body.name(), model) for name, sole in controller.soles.items()}
     sent, misses = {}, []
-    for step in range(1, 115):  # 1.9 s: three landings
+    for step in range(1, 160):  # 2.65 s: four landings
         sim.simulator.AdvanceTo(step / 60.0 + 1e-9)
         for name, goal in sent.items():
             if name not in controller.swing_goals:  # it landed at this step
                 landed = plant.EvalBodyPoseInWorld(sim.plant_context(), feet[name]).translation()
                 misses.append(abs(landed[1] - goal[1]))
         sent = dict(controller.swing_goals)
-    assert len(misses) >= 3 and max(misses[1:]) < 0.04, misses
+    assert len(misses) >= 4 and max(misses[1:]) < 0.04, misses
 
 
 @pytest.mark.parametrize("robot", ["walker", "naviai"])
@@ -301,9 +302,10 @@ def test_retarget_physics_performs_each_robots_clip(tmp_path):
     h1 = figures["h1"]["physics"]
     assert not h1["fell"] and h1["joint_rms_rad"] < 0.1 and h1["key_body_rms_m"] < 0.05, h1
     assert performed.contacts.all(axis=1).mean() > 0.9  # the floor carries both feet through a squat
-    # The QP's model predicts what a squat does: its CoM accelerations within 0.12 m/s^2 (median) on every robot.
+    # The QP's model predicts what a squat does: its CoM accelerations (median) within 0.12 m/s^2 on every robot
+    # as measured; 0.3 asserted.
     errors = {robot: figures[robot]["physics"]["com_acceleration_error_m_s2"] for robot in figures}
-    assert all(len(error) == 3 and max(error) < 0.3 for error in errors.values()), errors
+    assert all(error is not None and len(error) == 3 and max(error) < 0.3 for error in errors.values()), errors
     curi = figures["curi"]["physics"]
     assert not curi["fell"] and curi["least_pressure_margin_m"] is None and (out / "squat_curi_physical.npz").exists()
 

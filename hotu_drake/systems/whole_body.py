@@ -30,7 +30,7 @@ from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.actions import ActionScaling
 from hotu_drake.embodiment.spec import SIDES
 from hotu_drake.motion.clip import MotionClip
-from hotu_drake.plant import actuated_joint_order, actuated_state_indices
+from hotu_drake.plant import actuated_joint_order, actuated_state_indices, set_robot_state
 
 
 @dataclass
@@ -57,6 +57,7 @@ class TrackingGains:
 CONTROL_LEAD = 1e-6  # s: how long before the plant's step the controller acts (`WholeBodyController`)
 STEP_LOOK_AHEAD = 0.15  # s: how far ahead a swing foot's step is placed for the capture point's growth
 TOUCHING = 0.01  # m: a sole with a corner this close to the floor is down
+NEXT_STEP = 1e-6  # s: a step this near one period after the last is the next control step
 ROLL_AXIS = 0.7  # a joint whose axis is this near a foot's length (cosine) turns the foot about it
 LANDING_DEPTH = 0.005  # m: a foot the clip has down that is not yet down is drawn this far below the floor
 FOOTING_EASING = 0.6  # s: the time constant over which the tracked clip moves to where the feet stand
@@ -131,7 +132,7 @@ class WholeBodyController(LeafSystem):
             raise RuntimeError(f"{embodiment.name}: actuator order differs from the spec's joint order")
         self._q, self._v = actuated_state_indices(plant, self._model, embodiment.joint_names)
         self._actuated_v = self._v - plant.num_positions()  # the joints' rows of vdot
-        self._roll_with_leg = {name: self._rolls_with_leg(sole.body) for name, sole in self._soles.items()}
+        self._roll_follows_leg = {name: self._turns_only_as_leg_leans(sole.body) for name, sole in self._soles.items()}
         # The posture task's Jacobian: it selects the joints' rows of vdot.
         self._joint_rows = np.zeros((len(self._actuated_v), plant.num_velocities()))
         self._joint_rows[np.arange(len(self._actuated_v)), self._actuated_v] = 1.0
@@ -165,17 +166,16 @@ class WholeBodyController(LeafSystem):
         self.DeclareVectorOutputPort("desired_state", 2 * n, self._CalcDesiredState, {self.xd_ticket()})
         self.DeclareVectorOutputPort("torques", n, self._CalcTorques, {self.xd_ticket()})
 
-    def _rolls_with_leg(self, foot) -> bool:
-        """Whether a foot turns about its length only as its leg leans: fewer
-        than two joints between it and the body turn it about that axis (a hip
-        roll and no ankle roll: H1, BRUCE), read from the foot's rotational
-        Jacobian in the standing pose. A swing task asking such a foot to be
+    def _turns_only_as_leg_leans(self, foot) -> bool:
+        """Whether a foot turns about its length (its body's x axis, along
+        which every embodiment's sole is longest) only as its leg leans: fewer
+        than two joints between it and the floating base turn it about that
+        axis (a hip roll and no ankle roll: H1, BRUCE), read from the foot's
+        rotational Jacobian standing. A swing task asking such a foot to be
         level and at its sideways place asks the hip's roll for both, and the
-        compromise landed H1's feet 9 cm off (its walk drifting sideways)."""
+        compromise landed H1's feet 8-11 cm off (its walk drifting sideways)."""
         plant, scratch = self._plant, self._plant.CreateDefaultContext()
-        positions = plant.GetPositions(scratch)
-        positions[self._q] = self.embodiment.standing_pose
-        plant.SetPositions(scratch, positions)
+        set_robot_state(plant, scratch, self._model, self.embodiment)
         world = plant.world_frame()
         axes = plant.CalcJacobianAngularVelocity(scratch, JacobianWrtVariable.kV, foot.body_frame(), world, world)
         along = plant.EvalBodyPoseInWorld(scratch, foot).rotation().matrix()[:, 0]
@@ -201,6 +201,7 @@ class WholeBodyController(LeafSystem):
             self.reset()
         time = now if now == 0.0 else now + CONTROL_LEAD
         action = self.act(self._state.Eval(context), self.start_time + time)
+        self._check_prediction(self.start_time + time)
         targets = self._scaling.to_targets(action)
         discrete_state.set_value(np.concatenate([targets, np.zeros_like(targets), self.last.torques]))
 
@@ -221,7 +222,6 @@ class WholeBodyController(LeafSystem):
         self._goal_accelerations = plant.CalcSpatialAccelerationsFromVdot(
             self._reference, self._reference_accelerations
         )
-        self._check_prediction(time)
         planted = self.planted(time)
         self._footing(planted)
         tasks = self.tasks(time, planted)
@@ -232,7 +232,6 @@ class WholeBodyController(LeafSystem):
             self.timings["failures"] += 1
             solution = Solution(self.last.accelerations, self.last.forces, self.last.torques, False)
         self.last = solution
-        self._predict(time)
         q, v = x[self._q], x[self._v]
         a, dt, n = solution.accelerations[self._actuated_v], self.plant_step, self._steps
         # Held over n implicit steps of dt, the PD's mean torque is u when the joints move as predicted
@@ -253,7 +252,7 @@ class WholeBodyController(LeafSystem):
         """The median (m/s^2, world x, y, z; over the control steps since
         `reset`, None before two) of how far the CoM acceleration each
         solution predicted was from the one the robot had over the next
-        period, in a run the controller drives: where the QP's model of the
+        period, at the diagram's control steps: where the QP's model of the
         robot and its contacts is wrong (H1's sideways, its soles unable to
         roll as the QP lets them). The median, as a landing's impact is no
         error of the model's."""
@@ -261,28 +260,22 @@ class WholeBodyController(LeafSystem):
             return None
         return np.median(np.abs(self._prediction_errors), axis=0)
 
-    def _com_rows(self) -> tuple[np.ndarray, np.ndarray]:
+    def _check_prediction(self, time: float) -> None:
+        """At a control step of the diagram (the state `act` set in the
+        controller's context, the solution it kept): what the robot's CoM did
+        over the period since the last step, against what that step's solution
+        predicted; then this step's prediction. Only the diagram's own steps
+        count: a teacher's label for another state (an environment's) would
+        compare its prediction with what the student's action did."""
         plant, context, world = self._plant, self._context, self._plant.world_frame()
         kv = JacobianWrtVariable.kV
-        return (
-            plant.CalcJacobianCenterOfMassTranslationalVelocity(context, kv, world, world),
-            plant.CalcBiasCenterOfMassTranslationalAcceleration(context, kv, world, world),
-        )
-
-    def _predict(self, time: float) -> None:
-        """Keep the CoM velocity now and the acceleration the solution predicts (`prediction_error`)."""
-        jacobian, bias = self._com_rows()
-        velocity = jacobian @ self._plant.GetVelocities(self._context)
+        jacobian = plant.CalcJacobianCenterOfMassTranslationalVelocity(context, kv, world, world)
+        bias = plant.CalcBiasCenterOfMassTranslationalAcceleration(context, kv, world, world)
+        velocity = jacobian @ plant.GetVelocities(context)
+        if self._predicted is not None and abs(time - self._predicted[0] - self.period) < NEXT_STEP:
+            realized = (velocity - self._predicted[1]) / (time - self._predicted[0])
+            self._prediction_errors.append(self._predicted[2] - realized)
         self._predicted = (time, velocity, jacobian @ self.last.accelerations + bias)
-
-    def _check_prediction(self, time: float) -> None:
-        """With the state set in the controller's context: one period after the last
-        step, what the robot's CoM did against what that step's solution predicted."""
-        if self._predicted is None or abs(time - self._predicted[0] - self.period) > 1e-6:
-            return  # not the next control step (a teacher asked about some other state)
-        jacobian, _ = self._com_rows()
-        realized = (jacobian @ self._plant.GetVelocities(self._context) - self._predicted[1]) / self.period
-        self._prediction_errors.append(self._predicted[2] - realized)
 
     def reference_travel(self, duration: float) -> float:
         """How far (m, horizontally) the clip's pelvis moves over `duration` s
@@ -299,7 +292,7 @@ class WholeBodyController(LeafSystem):
         """Forget what the controller carried from step to step (the QP's warm
         start, where the feet stood): a new episode."""
         self._shift = np.zeros(3)
-        self._predicted, self._prediction_errors = None, []
+        self._predicted, self._prediction_errors, self.swing_goals = None, [], {}
         self.qp.reset()
 
     def _accelerations_at(self, time: float) -> np.ndarray:
@@ -401,7 +394,7 @@ class WholeBodyController(LeafSystem):
                     lowest = plant.EvalBodyPoseInWorld(reference, sole.body).multiply(sole.corners.T)[2].min()
                     goal = goal - [0.0, 0.0, lowest + LANDING_DEPTH]
                 jacobian, bias, target = self._body_rows(sole.body, gains.swing_stiffness, position=True, offset=goal)
-                if self._roll_with_leg[name]:  # its roll is the leg's: only its pitch and yaw asked
+                if self._roll_follows_leg[name]:  # its roll is the leg's: only its pitch and yaw asked
                     across = plant.EvalBodyPoseInWorld(context, sole.body).rotation().matrix()[:, 1:].T
                     jacobian, bias, target = (
                         np.vstack([across @ jacobian[:3], jacobian[3:]]),
