@@ -82,6 +82,16 @@ def test_a_loops_swing_across_the_seam_between_passes_keeps_going():
     np.testing.assert_allclose(progress, [1 / 6, 2 / 6, 4 / 6, 5 / 6, 1.0])
 
 
+def test_a_time_halfway_between_frames_takes_the_later_whatever_its_last_bits():
+    """A 60 Hz controller on a clip at half its rate asks for every other
+    step a time halfway between two frames; computed two ways it differs in
+    its last bits. Both take the later frame (Python's round took frame 2 at
+    0.25 s and frame 3 a bit above: a foot's contact flipped on a rounding)."""
+    plan = _stepping_plan([slice(3, 7)], loop=False)  # 10 fps: right foot down at 2, up at 3
+    halfway = [0.25, 0.25 + 1e-16, 0.25 - 5e-17, 15 / 60, (2 + 0.5) * 0.1]
+    assert {plan.planted(t)["right_foot"] for t in halfway} == {False}  # all frame 3
+
+
 def test_until_landing_counts_to_the_next_frame_down():
     """`ClipPlan.until_landing`: 0 while the foot is down, the seconds to its
     next frame down, across a loop's seam."""

@@ -34,6 +34,7 @@ HOLD_AFTER = 1.0  # s: a plan goes on this long past its clip's end, standing st
 SHIFT_TIME = 0.3  # s: how long the planned pressure takes to move between a stance foot and the clip's own
 NOMINAL_RATE = 240.0  # Hz: the plan's nominal CoM sampled this often, interpolated between
 SUPPORT_SHRINK = 0.5  # the support the plan keeps the pressure in: the soles shrunk this much toward their anchors
+HALF_FRAME_SLACK = 1e-6  # frames: a clip time this near a half frame counts as on it
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -243,9 +244,14 @@ class ClipPlan:
         return {name: bool(flags[frame]) for name, flags in self.contacts.items()}
 
     def _frame(self, time: float) -> int:
-        """The clip's frame nearest `time` (within its pass of a loop)."""
+        """The clip's frame nearest `time` (within its pass of a loop); a time
+        halfway between two frames (every other step of a 60 Hz controller on
+        a 30 fps clip) takes the later, whatever its last bits: Python's round
+        takes the even one, and a time one bit either side of the half flipped
+        a foot's contact (49/60 s gave frame 24, 0.8166666666666668 s 25)."""
         _, clip_time = self.pass_at(time)
-        return min(max(int(round(clip_time * self.clip.fps)), 0), self.clip.num_frames - 1)
+        frame = int(np.floor(clip_time * self.clip.fps + 0.5 + HALF_FRAME_SLACK))
+        return min(max(frame, 0), self.clip.num_frames - 1)
 
     def _frames_to_landing(self, flags: np.ndarray, frame: int) -> int:
         """Frames from `frame` until `flags` is next down (a loop's next pass
