@@ -52,6 +52,55 @@ def test_the_qp_forces_lie_in_their_friction_pyramids_and_balance_the_dynamics(h
     np.testing.assert_allclose(generalized, actuation, atol=1e-3 * scale)
 
 
+def test_a_sole_that_rolls_with_its_leg_stands_on_its_lower_edge(h1_squat_controller):
+    """H1's soles turn only as its legs lean: a planted sole rolled onto its
+    left edge is held at its two left corners; flat with both feet down,
+    both are held at the edge on the side the plan asks the CoM to go, their
+    other corners free to lift but not to sink (no force there, and their
+    heights' accelerations within the QP's bound). A sole with an ankle roll
+    (the UDH's) is held at all four."""
+    from pydrake.math import RigidTransform, RollPitchYaw
+
+    from hotu_drake.control.whole_body_qp import LIFT_DAMPING, LIFT_STIFFNESS
+
+    controller = h1_squat_controller
+    plant, context = controller._plant, controller._context
+    controller.plan.set_reference(context, 1.0)
+    x = plant.GetPositionsAndVelocities(context)
+    controller.act(x, 1.0)  # the state in the controller's context, the plan's sideways demand set
+    planted = {"left_foot": True, "right_foot": True}
+    corners_y = {name: sole.corners[:, 1] for name, sole in controller.soles.items()}
+    controller._sideways_demand = np.array([0.0, 1.0])  # toward +y: both soles on their +y edges
+    held, lifting = controller.contacts(planted)
+    for name in planted:
+        assert np.array_equal(held[name], corners_y[name] > corners_y[name].mean()), (name, held[name])
+        assert np.array_equal(lifting[name], ~held[name])
+    solution = controller.qp.solve(context, controller.tasks(1.0, planted), held, lifting)
+    jacobian, bias = controller.qp.contact_jacobians(context)
+    rise = (jacobian @ solution.accelerations + bias)[2::3]
+    height = controller.qp._heights(context)
+    rate = (jacobian @ plant.GetVelocities(context))[2::3]
+    free = controller.qp._by_corner(lifting)
+    assert free.sum() == 4
+    assert np.all(rise[free] >= -(LIFT_STIFFNESS * height + LIFT_DAMPING * rate)[free] - 1e-2)
+    assert np.allclose(np.vstack(list(solution.forces.values()))[free], 0.0, atol=1e-6)
+    # Rolled about its length by 0.05 rad, left side down: held at its left edge.
+    rolled = x.copy()
+    pelvis = plant.GetBodyByName(controller.embodiment.key_bodies["pelvis"])
+    plant.SetPositionsAndVelocities(context, rolled)
+    pose = plant.EvalBodyPoseInWorld(context, pelvis)
+    plant.SetFreeBodyPose(
+        context,
+        pelvis,
+        RigidTransform(RollPitchYaw(-0.05, 0.0, 0.0).ToRotationMatrix() @ pose.rotation(), pose.translation()),
+    )
+    held, _ = controller.contacts({"left_foot": True})
+    assert np.array_equal(held["left_foot"], corners_y["left_foot"] > corners_y["left_foot"].mean())
+    udh = WholeBodyController(embodiment.load("udh", "none"), library_clip("squat", "udh", "none"), 1 / 60)
+    held, lifting = udh.contacts(planted)
+    assert all(flags.all() for flags in held.values()) and not lifting
+
+
 def test_a_planted_sole_that_turns_is_braked(h1_squat_controller):
     """A planted foot set turning about the vertical (the fall the UDH's
     walk_backward took): the QP accelerates its corners against their

@@ -8,10 +8,13 @@ each corner k of each sole (its contact points). The program
     s.t. (M vdot + h - sum_k J_k' f_k)_floating = 0                 (the unactuated rows)
          -u_max <= (M vdot + h - sum_k J_k' f_k)_actuated <= u_max   (the torques, within limits)
          f_k in its friction pyramid, f_k = 0 on a foot in the air
+         J_k,z vdot + Jdot_k,z v >= -kp z_k - kd zdot_k  (a corner free to lift: not into the floor)
 
 with h = C(q, v) v - tau_g, is the operational-space / task-space
 inverse-dynamics QP of DAIR Lab's OSC and of TSID (accelerations, forces
-and torques, the torques eliminated through the actuated rows). Its
+and torques, the torques eliminated through the actuated rows). A planted
+sole is held at all its corners, or (a sole that rolls on an edge) at the
+corners of that edge, its others free to lift but not to sink. Its
 sparsity never changes, so it is set up once in OSQP (the design card's
 `osqp`, the solver inside Drake's `OsqpSolver`) and each step only updates
 its values and solves, warm-started from the last solution: Drake's
@@ -44,6 +47,9 @@ FORCE_WEIGHT = 1e-6
 # as 1e-5 did (BENCHMARKS.md) in a quarter of the iterations.
 SETTINGS = {"verbose": False, "polishing": True, "eps_abs": 1e-3, "eps_rel": 1e-3, "max_iter": 4000}
 INFINITY = 1e30  # OSQP's
+# 1/s^2 and 1/s: a corner free to lift is kept from sinking by asking its height's acceleration to be at
+# least -(LIFT_STIFFNESS z + LIFT_DAMPING zdot): one at the floor stays at or above it.
+LIFT_STIFFNESS, LIFT_DAMPING = 400.0, 40.0
 SOLVED = (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE)
 
 
@@ -94,7 +100,9 @@ class Solution:
 
 class WholeBodyQp:
     """The QP over one model of a (finalized, continuous or discrete) plant,
-    for the soles given by name (`soles`), with the actuators' effort limits."""
+    for the soles given by name (`soles`), with the actuators' effort limits;
+    the corners of the soles named in `rolling` may be left free to lift (a
+    row each, kept from sinking: `solve`'s `lifting`)."""
 
     def __init__(
         self,
@@ -102,6 +110,7 @@ class WholeBodyQp:
         soles: dict[str, Sole],
         effort_limits: np.ndarray,
         friction: float = FRICTION,
+        rolling: tuple[str, ...] = (),
     ):
         self.plant, self.soles = plant, soles
         self.nv = nv = plant.num_velocities()
@@ -112,9 +121,12 @@ class WholeBodyQp:
         forces = 3 * self.corners
         self.n = n = nv + forces
         self._limits = np.asarray(effort_limits, float)
-        # Rows of the constraint matrix: the floating base's dynamics, the actuated rows (torque limits), the
-        # friction pyramids, the forces' bounds (zero off the floor, f_z >= 0 on it).
-        self._rows = len(self.floating) + len(self._limits)
+        # Rows of the constraint matrix: the floating base's dynamics, the actuated rows (torque limits), each
+        # corner's height (kept from sinking when it may lift), the friction pyramids, the forces' bounds (zero
+        # off the floor, f_z >= 0 on it).
+        # The corners that may lift: those of the `rolling` soles (by index among all corners).
+        self._liftable = np.flatnonzero(self._by_corner({name: True for name in rolling}))
+        self._rows = len(self.floating) + len(self._limits) + len(self._liftable)
         pyramid = np.zeros((4 * self.corners, n))
         for k in range(self.corners):  # |f_x|, |f_y| <= mu f_z
             for row, (axis, sign) in enumerate(((0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0))):
@@ -122,6 +134,8 @@ class WholeBodyQp:
                 pyramid[4 * k + row, nv + 3 * k + 2] = -friction
         # The constraint matrix, dense: its first `_rows` rows set at each step, the rest fixed.
         self._constraints = np.vstack([np.ones((self._rows, n)), pyramid, np.eye(n)[nv:]])
+        self._lifting = slice(self._rows - len(self._liftable), self._rows)  # their height rows (vdot only)
+        self._constraints[self._lifting, nv:] = 0.0
         constraints = self._constraints
         hessian = np.zeros((n, n))
         hessian[:nv, :nv], hessian[nv:, nv:] = 1.0, np.eye(forces)
@@ -129,6 +143,7 @@ class WholeBodyQp:
         self._p_pattern = _Pattern(np.triu(hessian) != 0.0)
         self._lower = np.r_[np.zeros(self._rows), np.full(len(pyramid), -INFINITY), np.zeros(forces)]
         self._upper = np.r_[np.zeros(self._rows), np.zeros(len(pyramid)), np.zeros(forces)]
+        self._lower[self._lifting], self._upper[self._lifting] = -INFINITY, INFINITY  # active only when lifting
         self._solver = osqp.OSQP()
         # Polishing sharpens the contact forces' active set; with no soles there is none to sharpen (and OSQP
         # would say so on stdout at every step).
@@ -164,9 +179,30 @@ class WholeBodyQp:
             return np.zeros((0, self.nv)), np.zeros(0)
         return np.vstack(jacobians), np.concatenate(biases)
 
-    def solve(self, context, tasks: list[Task], planted: dict[str, bool]) -> Solution:
+    def _by_corner(self, flags: dict) -> np.ndarray:
+        """Per corner (C,) from per sole flags (by name: a bool, or one per corner)."""
+        return np.concatenate(
+            [np.zeros(0, bool)]
+            + [
+                np.broadcast_to(np.asarray(flags.get(name, False), bool), (len(sole.corners),))
+                for name, sole in self.soles.items()
+            ]
+        )
+
+    def _heights(self, context) -> np.ndarray:
+        """Each corner's height above the floor (C,)."""
+        plant, world = self.plant, self.plant.world_frame()
+        heights = [
+            plant.CalcPointsPositions(context, sole.body.body_frame(), sole.corners.T, world)[2]
+            for sole in self.soles.values()
+        ]
+        return np.concatenate([np.zeros(0), *heights])
+
+    def solve(self, context, tasks: list[Task], planted: dict, lifting: dict | None = None) -> Solution:
         """The accelerations, sole forces and torques that best meet `tasks`
-        with the soles `planted` (by name) on the floor, at the plant state in `context`."""
+        with the soles `planted` (by name: True, or which corners, (K,) bools)
+        held on the floor, and the corners `lifting` (by name, (K,) bools)
+        free to lift but not to sink, at the plant state in `context`."""
         plant, nv = self.plant, self.nv
         mass = plant.CalcMassMatrix(context)
         h = plant.CalcBiasTerm(context) - plant.CalcGravityGeneralizedForces(context)
@@ -175,15 +211,20 @@ class WholeBodyQp:
         rows = np.hstack([mass, -jacobian.T])
         actuated = rows[self.actuated]
         constraints = self._constraints
-        constraints[: len(self.floating)], constraints[len(self.floating) : self._rows] = rows[self.floating], actuated
-        down = np.array(
-            [bool(planted.get(name)) for name, sole in self.soles.items() for _ in sole.corners], dtype=bool
-        )
+        actuated_rows = slice(len(self.floating), self._lifting.start)
+        constraints[: len(self.floating)], constraints[actuated_rows] = rows[self.floating], actuated
+        constraints[self._lifting, :nv] = jacobian[2::3][self._liftable]
+        down = self._by_corner(planted)
         floating, limits, bounds = len(self.floating), self._limits, len(self._lower) - 3 * self.corners
         lower, upper = self._lower.copy(), self._upper.copy()
         lower[:floating] = upper[:floating] = -h[self.floating]
-        lower[floating : self._rows] = -limits - h[self.actuated]
-        upper[floating : self._rows] = limits - h[self.actuated]
+        lower[actuated_rows] = -limits - h[self.actuated]
+        upper[actuated_rows] = limits - h[self.actuated]
+        if lifting:  # J_z vdot >= -(kp z + kd zdot) - Jdot_z v
+            rate = (jacobian @ plant.GetVelocities(context))[2::3]
+            least = -(LIFT_STIFFNESS * self._heights(context) + LIFT_DAMPING * rate) - bias[2::3]
+            free = self._by_corner(lifting)[self._liftable]
+            lower[self._lifting] = np.where(free, least[self._liftable], -INFINITY)
         on = np.repeat(down, 3)  # a planted corner's force is free but for f_z >= 0; one in the air is zero
         lower[bounds:], upper[bounds:] = np.where(on, -INFINITY, 0.0), np.where(on, INFINITY, 0.0)
         lower[bounds + 2 :: 3] = 0.0

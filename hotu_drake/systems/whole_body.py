@@ -59,6 +59,9 @@ STEP_LOOK_AHEAD = 0.15  # s: how far ahead a swing foot's step is placed for the
 TOUCHING = 0.01  # m: a sole with a corner this close to the floor is down
 NEXT_STEP = 1e-6  # s: a step this near one period after the last is the next control step
 ROLL_AXIS = 0.7  # a joint whose axis is this near a foot's length (cosine) turns the foot about it
+MIN_SOLE_WIDTH = 0.01  # m: a sole narrower than this across is a line of contacts, free to roll already
+ROLLED = 0.005  # rad: a sole turned this far about its length stands on its lower edge
+LEANING = 0.05  # m/s^2: the sideways CoM acceleration asked for which both flat soles of a rolling pair tip
 LANDING_DEPTH = 0.005  # m: a foot the clip has down that is not yet down is drawn this far below the floor
 FOOTING_EASING = 0.6  # s: the time constant over which the tracked clip moves to where the feet stand
 
@@ -119,6 +122,7 @@ class WholeBodyController(LeafSystem):
         self._reference_accelerations = np.zeros(plant.num_velocities())
         self._step = 0.5 / clip.fps
         self._shift = np.zeros(3)  # where the planted feet stand against the clip's (`_footing`)
+        self._sideways_demand = np.zeros(2)  # the ZMP plan's horizontal CoM acceleration at the last step
         self._scaling = ActionScaling.for_embodiment(embodiment)
         self.plan = ClipPlan(clip, plant, self._model, embodiment, self._reference, loop)
         self._soles = {
@@ -127,12 +131,19 @@ class WholeBodyController(LeafSystem):
             if f"{side}_foot" in embodiment.key_bodies
             for corners in [sole_corners(embodiment, embodiment.key_bodies[f"{side}_foot"])]
         }
-        self.qp = WholeBodyQp(plant, self._soles, embodiment.effort_limits)
         if actuated_joint_order(plant, self._model) != embodiment.joint_names:
             raise RuntimeError(f"{embodiment.name}: actuator order differs from the spec's joint order")
         self._q, self._v = actuated_state_indices(plant, self._model, embodiment.joint_names)
         self._actuated_v = self._v - plant.num_positions()  # the joints' rows of vdot
         self._roll_follows_leg = {name: self._turns_only_as_leg_leans(sole.body) for name, sole in self._soles.items()}
+        # Soles that stand on an edge as their legs lean sideways: such a foot with width (a line of contacts
+        # turns about its line already). H1's: with both flat its legs cannot lean (`contacts`).
+        self._rolls_on_edges = {
+            name: self._roll_follows_leg[name] and np.ptp(sole.corners[:, 1]) > MIN_SOLE_WIDTH
+            for name, sole in self._soles.items()
+        }
+        rolling = tuple(name for name, rolls in self._rolls_on_edges.items() if rolls)
+        self.qp = WholeBodyQp(plant, self._soles, embodiment.effort_limits, rolling=rolling)
         # The posture task's Jacobian: it selects the joints' rows of vdot.
         self._joint_rows = np.zeros((len(self._actuated_v), plant.num_velocities()))
         self._joint_rows[np.arange(len(self._actuated_v)), self._actuated_v] = 1.0
@@ -225,8 +236,9 @@ class WholeBodyController(LeafSystem):
         planted = self.planted(time)
         self._footing(planted)
         tasks = self.tasks(time, planted)
+        held, lifting = self.contacts(planted)
         solving = perf_counter()
-        solution = self.qp.solve(self._context, tasks, planted)
+        solution = self.qp.solve(self._context, tasks, held, lifting)
         self.timings["qp"] += perf_counter() - solving
         if not solution.success and self.last is not None:
             self.timings["failures"] += 1
@@ -293,6 +305,7 @@ class WholeBodyController(LeafSystem):
         start, where the feet stood): a new episode."""
         self._shift = np.zeros(3)
         self._predicted, self._prediction_errors, self.swing_goals = None, [], {}
+        self._sideways_demand = np.zeros(2)
         self.qp.reset()
 
     def _accelerations_at(self, time: float) -> np.ndarray:
@@ -322,6 +335,33 @@ class WholeBodyController(LeafSystem):
                 down = bool(corners[2].min() < TOUCHING)
             out[name] = down
         return out
+
+    def contacts(self, planted: dict[str, bool]) -> tuple[dict, dict]:
+        """Which corners of each planted sole the QP holds, and which may lift
+        (by name, (K,) bools). A sole that rolls on an edge (`_rolls_on_edges`) and
+        is turned about its length stands on its lower edge: held there, its
+        other corners free to lift. Flat, with both feet down and the ZMP
+        plan asking the CoM sideways, both such soles are held at their edge
+        on that side, so the legs can lean as a parallelogram (the body's
+        only way sideways with both feet flat and no ankle roll)."""
+        plant, context = self._plant, self._context
+        held, lifting = {}, {}
+        both = sum(bool(planted.get(name)) for name in self._soles) > 1
+        for name, sole in self._soles.items():
+            if not planted.get(name):
+                continue
+            held[name] = np.ones(len(sole.corners), bool)
+            if not self._rolls_on_edges[name]:
+                continue
+            rotation = plant.EvalBodyPoseInWorld(context, sole.body).rotation().matrix()
+            across = sole.corners[:, 1] - sole.corners[:, 1].mean()  # each corner's side of the sole
+            tilt = rotation[2, 1]  # the sole's left side up (+) or down (-)
+            if abs(tilt) > np.sin(ROLLED):
+                held[name] = across * tilt < 0.0  # the lower edge
+            elif both and abs(self._sideways_demand @ rotation[:2, 1]) > LEANING:
+                held[name] = across * (self._sideways_demand @ rotation[:2, 1]) > 0.0
+            lifting[name] = ~held[name]
+        return held, lifting
 
     def tasks(self, time: float, planted: dict[str, bool] | None = None) -> list[Task]:
         """The tracking tasks at `time`, for the state set in the controller's
@@ -368,6 +408,7 @@ class WholeBodyController(LeafSystem):
             + _damping(stiffness) * (com_reference_velocity[2] - com_velocity[2])
         )
         target = np.append(self.plan.com_acceleration_for(time, com - shift, com_velocity), height)
+        self._sideways_demand = target[:2]
         tasks = [
             Task(
                 plant.CalcJacobianCenterOfMassTranslationalVelocity(context, kv, world, world),
