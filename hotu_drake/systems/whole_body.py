@@ -227,6 +227,11 @@ class WholeBodyController(LeafSystem):
         start = perf_counter()
         plant, emb = self._plant, self.embodiment
         plant.SetPositionsAndVelocities(self._context, x)
+        world, kv = plant.world_frame(), JacobianWrtVariable.kV
+        self._com_rows = (  # the CoM's Jacobian and Jdot v at this state: for its task and `_check_prediction`
+            plant.CalcJacobianCenterOfMassTranslationalVelocity(self._context, kv, world, world),
+            plant.CalcBiasCenterOfMassTranslationalAcceleration(self._context, kv, world, world),
+        )
         self.plan.set_reference(self._reference, time)
         self._reference_accelerations = self._accelerations_at(time)
         # Every body's spatial acceleration in the reference (world frame), for the body tasks' feed-forward.
@@ -279,11 +284,8 @@ class WholeBodyController(LeafSystem):
         predicted; then this step's prediction. Only the diagram's own steps
         count: a teacher's label for another state (an environment's) would
         compare its prediction with what the student's action did."""
-        plant, context, world = self._plant, self._context, self._plant.world_frame()
-        kv = JacobianWrtVariable.kV
-        jacobian = plant.CalcJacobianCenterOfMassTranslationalVelocity(context, kv, world, world)
-        bias = plant.CalcBiasCenterOfMassTranslationalAcceleration(context, kv, world, world)
-        velocity = jacobian @ plant.GetVelocities(context)
+        jacobian, bias = self._com_rows
+        velocity = jacobian @ self._plant.GetVelocities(self._context)
         if self._predicted is not None and abs(time - self._predicted[0] - self.period) < NEXT_STEP:
             realized = (velocity - self._predicted[1]) / (time - self._predicted[0])
             self._prediction_errors.append(self._predicted[2] - realized)
@@ -395,7 +397,6 @@ class WholeBodyController(LeafSystem):
         clip's height), and each swing foot to its footstep, moved by the
         capture point's error (or, one the clip has down, onto the floor)."""
         plant, context, reference, gains = self._plant, self._context, self._reference, self.gains
-        world, kv = plant.world_frame(), JacobianWrtVariable.kV
         com = plant.CalcCenterOfMassPositionInWorld(context)
         com_velocity = plant.CalcCenterOfMassTranslationalVelocityInWorld(context)
         shift = self._shift
@@ -409,14 +410,7 @@ class WholeBodyController(LeafSystem):
         )
         target = np.append(self.plan.com_acceleration_for(time, com - shift, com_velocity), height)
         self._sideways_demand = target[:2]
-        tasks = [
-            Task(
-                plant.CalcJacobianCenterOfMassTranslationalVelocity(context, kv, world, world),
-                plant.CalcBiasCenterOfMassTranslationalAcceleration(context, kv, world, world),
-                target,
-                gains.com_weight,
-            )
-        ]
+        tasks = [Task(*self._com_rows, target, gains.com_weight)]
         frequency = np.sqrt(GRAVITY / max(com_reference[2], 0.1))
         planned, planned_velocity = self.plan.planned_com(time)
         capture = (com[:2] - shift[:2] - planned) + (com_velocity[:2] - planned_velocity) / frequency
