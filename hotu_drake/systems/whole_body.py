@@ -5,8 +5,9 @@ At each control step the controller sets its own copy of the robot's
 (`control.whole_body_qp`): centre of mass along the clip's ZMP plan
 (`control.clip_plan`, with the plan's LQR feedback), pelvis and torso
 orientation, swing feet, the hands in a clip that handles an object, the
-clip's joint posture, the planted soles' corners held still (one that slides braked), within
-friction pyramids and torque limits. A robot on a wheeled base (CURI) has
+clip's joint posture, the planted soles' corners held still (one that
+slides braked; a sole that turns only as its leg leans, H1's, at the edge
+it stands on), within friction pyramids and torque limits. A robot on a wheeled base (CURI) has
 no balance to keep: its tasks are the body's, the hands' and the posture. It acts
 through the path a policy acts through: an action (normalised PD targets
 within the joints' limits, the velocity targets zero) for the plant's PD,
@@ -368,9 +369,10 @@ class WholeBodyController(LeafSystem):
     def tasks(self, time: float, planted: dict[str, bool] | None = None) -> list[Task]:
         """The tracking tasks at `time`, for the state set in the controller's
         context, with the soles `planted` (by default `planted(time)`), the
-        reference and its accelerations as `act` sets them, and the footing
-        as `act` last left it: on feet, the CoM and the swing feet (balance);
-        the pelvis' and torso's orientation, the hands, the joints' posture."""
+        reference, its accelerations and the CoM's rows as `act` sets them,
+        and the footing as `act` last left it: on feet, the CoM and the swing
+        feet (balance); the pelvis' and torso's orientation, the hands, the
+        joints' posture."""
         gains, planted = self.gains, self.planted(time) if planted is None else planted
         tasks = self._balance_tasks(time, planted) if self._soles else []
         for body in self._bodies:
