@@ -136,7 +136,7 @@ class WholeBodyController(LeafSystem):
             raise RuntimeError(f"{embodiment.name}: actuator order differs from the spec's joint order")
         self._q, self._v = actuated_state_indices(plant, self._model, embodiment.joint_names)
         self._actuated_v = self._v - plant.num_positions()  # the joints' rows of vdot
-        self._roll_follows_leg = {name: self._turns_only_as_leg_leans(sole.body) for name, sole in self._soles.items()}
+        self._roll_follows_leg = self._soles_turning_only_as_legs_lean()
         # Soles that stand on an edge as their legs lean sideways: such a foot with width (a line of contacts
         # turns about its line already). H1's: with both flat its legs cannot lean (`contacts`).
         self._rolls_on_edges = {
@@ -178,21 +178,24 @@ class WholeBodyController(LeafSystem):
         self.DeclareVectorOutputPort("desired_state", 2 * n, self._CalcDesiredState, {self.xd_ticket()})
         self.DeclareVectorOutputPort("torques", n, self._CalcTorques, {self.xd_ticket()})
 
-    def _turns_only_as_leg_leans(self, foot) -> bool:
-        """Whether a foot turns about its length (its body's x axis, along
-        which every embodiment's sole is longest) only as its leg leans: fewer
-        than two joints between it and the floating base turn it about that
-        axis (a hip roll and no ankle roll: H1, BRUCE), read from the foot's
-        rotational Jacobian standing. A swing task asking such a foot to be
-        level and at its sideways place asks the hip's roll for both, and the
-        compromise landed H1's feet 8-11 cm off (its walk drifting sideways)."""
+    def _soles_turning_only_as_legs_lean(self) -> dict[str, bool]:
+        """Per sole, whether its foot turns about its length (its body's x
+        axis, along which every embodiment's sole is longest) only as its leg
+        leans: fewer than two joints between it and the floating base turn it
+        about that axis (a hip roll and no ankle roll: H1, BRUCE), read from
+        the foot's rotational Jacobian standing. A swing task asking such a
+        foot to be level and at its sideways place asks the hip's roll for
+        both, and the compromise landed H1's feet 8-11 cm off (its walk
+        drifting sideways)."""
         plant, scratch = self._plant, self._plant.CreateDefaultContext()
         set_robot_state(plant, scratch, self._model, self.embodiment)
-        world = plant.world_frame()
-        axes = plant.CalcJacobianAngularVelocity(scratch, JacobianWrtVariable.kV, foot.body_frame(), world, world)
-        along = plant.EvalBodyPoseInWorld(scratch, foot).rotation().matrix()[:, 0]
-        turning = np.abs(along @ axes[:, self._actuated_v]) > ROLL_AXIS
-        return int(turning.sum()) < 2
+        world, out = plant.world_frame(), {}
+        for name, sole in self._soles.items():
+            frame = sole.body.body_frame()
+            axes = plant.CalcJacobianAngularVelocity(scratch, JacobianWrtVariable.kV, frame, world, world)
+            along = plant.EvalBodyPoseInWorld(scratch, sole.body).rotation().matrix()[:, 0]
+            out[name] = int((np.abs(along @ axes[:, self._actuated_v]) > ROLL_AXIS).sum()) < 2
+        return out
 
     @property
     def soles(self) -> dict[str, Sole]:
