@@ -191,6 +191,39 @@ def test_h1_squats_under_the_controller_without_falling():
     assert min(heights) < min(goals) + 0.03 and min(goals) < goals[0] - 0.2  # a real squat, performed
 
 
+def test_a_trailing_foot_pushes_off_on_its_toes():
+    """The UDH's walk lifts the trailing foot (its contact ends) as its heel
+    rises over toes still on the floor: early in that swing the foot is held
+    at its toes, its heel corners free to lift, and the QP pushes on the
+    toes alone; a flat foot in the air, or one late in its swing, is not. Its
+    fast walk, which fell at 1.7 s from every start with the trailing foot
+    lifted flat, is performed to its end with the pelvis' travel within 15%."""
+    from hotu_drake.physical import perform
+
+    clip = library_clip("walk", "udh", "none")
+    controller = WholeBodyController(embodiment.load("udh", "none"), clip, 1.0 / 60.0, loop=False)
+    plant, context = controller._plant, controller._context
+    time = 27 / clip.fps  # the left heel 3-4 cm up, its toes on the floor, the right foot down since frame 25
+    controller.plan.set_reference(context, time)
+    controller.act(plant.GetPositionsAndVelocities(context), time)
+    assert not controller.plan.planted(time)["left_foot"]
+    toes = controller.toes(time)
+    corners = controller.soles["left_foot"].corners
+    assert list(toes) == ["left_foot"] and np.array_equal(toes["left_foot"], corners[:, 0] > corners[:, 0].mean())
+    planted = controller.planted(time)
+    assert planted == {"left_foot": True, "right_foot": True}
+    held, lifting = controller.contacts(planted, toes)
+    assert np.array_equal(held["left_foot"], toes["left_foot"])
+    assert np.array_equal(lifting["left_foot"], ~toes["left_foot"])
+    assert held["right_foot"].all() and "right_foot" not in lifting
+    forces = controller.last.forces["left_foot"][:, 2]
+    assert np.allclose(forces[~toes["left_foot"]], 0.0, atol=1e-6) and forces[toes["left_foot"]].sum() > 10.0
+    assert not controller.toes(20 / clip.fps) and not controller.toes(35 / clip.fps)  # flat in the air; late
+    report = perform(library_clip("walk_fast", "udh", "none")).report
+    assert not report["fell"], report["fell_at_s"]
+    assert abs(report["root_travel_m"] / report["reference_travel_m"] - 1.0) < 0.15, report
+
+
 def test_a_scenario_names_the_whole_body_driver_in_yaml(tmp_path):
     path = tmp_path / "wbc.yaml"
     start = "initial: {reference_time: 0.0}\n"

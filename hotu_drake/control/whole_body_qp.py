@@ -13,8 +13,8 @@ each corner k of each sole (its contact points). The program
 with h = C(q, v) v - tau_g, is the operational-space / task-space
 inverse-dynamics QP of DAIR Lab's OSC and of TSID (accelerations, forces
 and torques, the torques eliminated through the actuated rows). A planted
-sole is held at all its corners, or (a sole that rolls on an edge) at the
-corners of that edge, its others free to lift but not to sink. Its
+sole is held at all its corners, or at some (a sole that rolls on an edge,
+a foot pushing off on its toes), its others free to lift but not to sink. Its
 sparsity never changes, so it is set up once in OSQP (the design card's
 `osqp`, the solver inside Drake's `OsqpSolver`) and each step only updates
 its values and solves, warm-started from the last solution: Drake's
@@ -101,8 +101,8 @@ class Solution:
 class WholeBodyQp:
     """The QP over one model of a (finalized, continuous or discrete) plant,
     for the soles given by name (`soles`), with the actuators' effort limits;
-    the corners of the soles named in `rolling` may be left free to lift (a
-    row each, kept from sinking: `solve`'s `lifting`)."""
+    any sole's corners may be left free to lift (a row each, kept from
+    sinking: `solve`'s `lifting`)."""
 
     def __init__(
         self,
@@ -110,7 +110,6 @@ class WholeBodyQp:
         soles: dict[str, Sole],
         effort_limits: np.ndarray,
         friction: float = FRICTION,
-        rolling: tuple[str, ...] = (),
     ):
         self.plant, self.soles = plant, soles
         self.nv = nv = plant.num_velocities()
@@ -124,9 +123,7 @@ class WholeBodyQp:
         # Rows of the constraint matrix: the floating base's dynamics, the actuated rows (torque limits), each
         # corner's height (kept from sinking when it may lift), the friction pyramids, the forces' bounds (zero
         # off the floor, f_z >= 0 on it).
-        # The corners that may lift: those of the `rolling` soles (by index among all corners).
-        self._liftable = np.flatnonzero(self._by_corner({name: True for name in rolling}))
-        self._rows = len(self.floating) + len(self._limits) + len(self._liftable)
+        self._rows = len(self.floating) + len(self._limits) + self.corners
         pyramid = np.zeros((4 * self.corners, n))
         for k in range(self.corners):  # |f_x|, |f_y| <= mu f_z
             for row, (axis, sign) in enumerate(((0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0))):
@@ -134,7 +131,7 @@ class WholeBodyQp:
                 pyramid[4 * k + row, nv + 3 * k + 2] = -friction
         # The constraint matrix, dense: its first `_rows` rows set at each step, the rest fixed.
         self._constraints = np.vstack([np.ones((self._rows, n)), pyramid, np.eye(n)[nv:]])
-        self._lifting = slice(self._rows - len(self._liftable), self._rows)  # their height rows (vdot only)
+        self._lifting = slice(self._rows - self.corners, self._rows)  # the corners' height rows (vdot only)
         self._constraints[self._lifting, nv:] = 0.0
         constraints = self._constraints
         hessian = np.zeros((n, n))
@@ -213,7 +210,7 @@ class WholeBodyQp:
         constraints = self._constraints
         actuated_rows = slice(len(self.floating), self._lifting.start)
         constraints[: len(self.floating)], constraints[actuated_rows] = rows[self.floating], actuated
-        constraints[self._lifting, :nv] = jacobian[2::3][self._liftable]
+        constraints[self._lifting, :nv] = jacobian[2::3]
         down = self._by_corner(planted)
         floating, limits, bounds = len(self.floating), self._limits, len(self._lower) - 3 * self.corners
         lower, upper = self._lower.copy(), self._upper.copy()
@@ -223,8 +220,7 @@ class WholeBodyQp:
         if lifting:  # J_z vdot >= -(kp z + kd zdot) - Jdot_z v
             rate = (jacobian @ plant.GetVelocities(context))[2::3]
             least = -(LIFT_STIFFNESS * self._heights(context) + LIFT_DAMPING * rate) - bias[2::3]
-            free = self._by_corner(lifting)[self._liftable]
-            lower[self._lifting] = np.where(free, least[self._liftable], -INFINITY)
+            lower[self._lifting] = np.where(self._by_corner(lifting), least, -INFINITY)
         on = np.repeat(down, 3)  # a planted corner's force is free but for f_z >= 0; one in the air is zero
         lower[bounds:], upper[bounds:] = np.where(on, -INFINITY, 0.0), np.where(on, INFINITY, 0.0)
         lower[bounds + 2 :: 3] = 0.0

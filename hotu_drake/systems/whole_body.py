@@ -64,6 +64,11 @@ MIN_SOLE_WIDTH = 0.01  # m: a sole narrower than this across is a line of contac
 ROLLED = 0.005  # rad: a sole turned this far about its length stands on its lower edge
 LEANING = 0.05  # m/s^2: the sideways CoM acceleration asked for which both flat soles of a rolling pair tip
 LANDING_DEPTH = 0.005  # m: a foot the clip has down that is not yet down is drawn this far below the floor
+# m: a foot the clip has lifted pushes off on its toes while, early in its swing, the clip's sole is pitched
+# over an edge (its other corners `TOE_PITCH` higher) whose corners (those within `TOE_BAND` of its lowest)
+# are within `TOE_DOWN` of the floor. The clips' contacts end as the heel rises (`_foot_contacts`), so a walk
+# switched its support from foot to foot within a frame and the trailing foot lifted flat: no push-off.
+TOE_DOWN, TOE_BAND, TOE_PITCH = 0.005, 0.005, 0.01
 FOOTING_EASING = 0.6  # s: the time constant over which the tracked clip moves to where the feet stand
 
 
@@ -143,8 +148,7 @@ class WholeBodyController(LeafSystem):
             name: self._roll_follows_leg[name] and np.ptp(sole.corners[:, 1]) > MIN_SOLE_WIDTH
             for name, sole in self._soles.items()
         }
-        rolling = tuple(name for name, rolls in self._rolls_on_edges.items() if rolls)
-        self.qp = WholeBodyQp(plant, self._soles, embodiment.effort_limits, rolling=rolling)
+        self.qp = WholeBodyQp(plant, self._soles, embodiment.effort_limits)
         # The posture task's Jacobian: it selects the joints' rows of vdot.
         self._joint_rows = np.zeros((len(self._actuated_v), plant.num_velocities()))
         self._joint_rows[np.arange(len(self._actuated_v)), self._actuated_v] = 1.0
@@ -245,7 +249,7 @@ class WholeBodyController(LeafSystem):
         planted = self.planted(time)
         self._footing(planted)
         tasks = self.tasks(time, planted)
-        held, lifting = self.contacts(planted)
+        held, lifting = self.contacts(planted, self.toes(time))
         solving = perf_counter()
         solution = self.qp.solve(self._context, tasks, held, lifting)
         self.timings["qp"] += perf_counter() - solving
@@ -331,20 +335,40 @@ class WholeBodyController(LeafSystem):
         the clip has landed that is still in the air stays a swing foot,
         drawn to its footstep on the floor; held still as planted it would
         hover (the robots that fell at the end of the walk stood on one leg,
-        the other 3 cm up)."""
+        the other 3 cm up). A foot pushing off on its toes (`toes`) is down
+        if they are."""
         plant, context = self._plant, self._context
-        out = {}
+        out, toes = {}, self.toes(time)
         for name, down in self.plan.planted(time).items():
             sole = self._soles.get(name)
+            down = down or name in toes
             if down and sole is not None:
                 corners = plant.EvalBodyPoseInWorld(context, sole.body).multiply(sole.corners.T)
                 down = bool(corners[2].min() < TOUCHING)
             out[name] = down
         return out
 
-    def contacts(self, planted: dict[str, bool]) -> tuple[dict, dict]:
+    def toes(self, time: float) -> dict[str, np.ndarray]:
+        """The feet pushing off at `time` (the reference set to it): per foot
+        the clip has lifted, in the first half of its swing, whose sole the
+        clip still has on the floor pitched over an edge (`TOE_DOWN`,
+        `TOE_PITCH`), that edge's corners ((K,) bools, `TOE_BAND`). Held
+        there, the trailing foot pushes the body on as a person's toes do
+        while the other lands."""
+        plant, reference, out = self._plant, self._reference, {}
+        for name, down in self.plan.planted(time).items():
+            sole = self._soles.get(name)
+            if down or sole is None or self.plan.swing_progress(name, time) >= 0.5:
+                continue
+            heights = plant.EvalBodyPoseInWorld(reference, sole.body).multiply(sole.corners.T)[2]
+            if heights.min() < TOE_DOWN and np.ptp(heights) > TOE_PITCH:
+                out[name] = heights < heights.min() + TOE_BAND
+        return out
+
+    def contacts(self, planted: dict[str, bool], toes: dict[str, np.ndarray] | None = None) -> tuple[dict, dict]:
         """Which corners of each planted sole the QP holds, and which may lift
-        (by name, (K,) bools). A sole that rolls on an edge (`_rolls_on_edges`) and
+        (by name, (K,) bools). A foot pushing off (`toes`, its toes' corners by
+        name) is held at its toes. A sole that rolls on an edge (`_rolls_on_edges`) and
         is turned about its length stands on its lower edge: held there, its
         other corners free to lift. Flat, with both feet down and the ZMP
         plan asking the CoM sideways, both such soles are held at their edge
@@ -357,6 +381,9 @@ class WholeBodyController(LeafSystem):
             if not planted.get(name):
                 continue
             held[name] = np.ones(len(sole.corners), bool)
+            if toes and name in toes:
+                held[name], lifting[name] = toes[name], ~toes[name]
+                continue
             if not self._rolls_on_edges[name]:
                 continue
             rotation = plant.EvalBodyPoseInWorld(context, sole.body).rotation().matrix()
