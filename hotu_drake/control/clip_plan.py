@@ -270,11 +270,23 @@ class ClipPlan:
         flags, frame = self.contacts[name], self._frame(time)
         if flags[frame]:
             return 1.0
+        lifted = self._frames_since_down(flags, frame)
+        return lifted / (lifted + self._frames_to_landing(flags, frame))
+
+    def since_lifting(self, name: str, time: float) -> float:
+        """Seconds from the clip's last frame with foot `name` down to `time`
+        (0 while it is down; a loop's swing may span the seam between passes)."""
+        flags, frame = self.contacts[name], self._frame(time)
+        return 0.0 if flags[frame] else self._frames_since_down(flags, frame) / self.clip.fps
+
+    def _frames_since_down(self, flags: np.ndarray, frame: int) -> int:
+        """Frames back from `frame` (up) to the last frame `flags` is down (a
+        loop's pass before counts: its last frame is this one's first)."""
         since = flags[frame::-1]  # back to its liftoff
         lifted = int(np.argmax(since)) if since.any() else frame + 1
-        if self.loop and not since.any():  # lifted in the pass before (its last frame is this one's first)
+        if self.loop and not since.any():
             lifted += int(np.argmax(flags[-2::-1])) if flags.any() else 0
-        return lifted / (lifted + self._frames_to_landing(flags, frame))
+        return lifted
 
     def until_landing(self, name: str, time: float) -> float:
         """Seconds from `time` until the clip next has foot `name` down (0

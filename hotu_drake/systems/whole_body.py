@@ -7,7 +7,8 @@ At each control step the controller sets its own copy of the robot's
 orientation, swing feet, the hands in a clip that handles an object, the
 clip's joint posture, the planted soles' corners held still (one that
 slides braked; a sole that turns only as its leg leans, H1's, at the edge
-it stands on), within friction pyramids and torque limits. A robot on a wheeled base (CURI) has
+it stands on; a trailing foot, as it lifts, on the edge it pushes off on),
+within friction pyramids and torque limits. A robot on a wheeled base (CURI) has
 no balance to keep: its tasks are the body's, the hands' and the posture. It acts
 through the path a policy acts through: an action (normalised PD targets
 within the joints' limits, the velocity targets zero) for the plant's PD,
@@ -68,12 +69,14 @@ LANDING_DEPTH = 0.005  # m: a foot the clip has down that is not yet down is dra
 # over an edge (its other corners `TOE_PITCH` higher) whose corners (those within `TOE_BAND` of its lowest)
 # are within `TOE_DOWN` of the floor. The clips' contacts end as the heel rises (`_foot_contacts`), so a walk
 # switched its support from foot to foot within a frame and the trailing foot lifted flat: no push-off.
-TOE_DOWN, TOE_BAND, TOE_PITCH = 0.005, 0.005, 0.01
+# Over the first `TOE_SWING` of the swing (its share of the clip's frames up).
+TOE_DOWN, TOE_BAND, TOE_PITCH, TOE_SWING = 0.005, 0.005, 0.01, 0.5
 # A foot the clip lifts flat (H1's: its leg cannot reach the floor at the person's push-off) pushes off
-# all the same over the first `PUSH_OFF_SWING` of its swing while the other foot is down, if it is going
-# at least `PUSH_OFF_STEP` (m) to its next footstep: on its edge toward it (the corners within
-# `PUSH_OFF_EDGE` (m) of the furthest that way: the toes walking forward, the left edge stepping left).
-PUSH_OFF_SWING, PUSH_OFF_STEP, PUSH_OFF_EDGE = 0.1, 0.05, 0.02
+# all the same for `PUSH_OFF_TIME` (s) after the clip lifts it (a 30 fps clip's first frame up) while the
+# other foot is down, if it is going at least `PUSH_OFF_STEP` (m) to its next footstep: on its edge toward it
+# (the corners within `PUSH_OFF_EDGE` (m) of the furthest that way, along the sole's length or across it:
+# its toes walking forward, its heel walking backwards, its left edge stepping to the left).
+PUSH_OFF_TIME, PUSH_OFF_STEP, PUSH_OFF_EDGE = 0.05, 0.05, 0.02
 FOOTING_EASING = 0.6  # s: the time constant over which the tracked clip moves to where the feet stand
 
 
@@ -251,10 +254,11 @@ class WholeBodyController(LeafSystem):
         self._goal_accelerations = plant.CalcSpatialAccelerationsFromVdot(
             self._reference, self._reference_accelerations
         )
-        planted = self.planted(time)
+        pushing = self.pushing_off(time)
+        planted = self.planted(time, pushing)
         self._footing(planted)
         tasks = self.tasks(time, planted)
-        held, lifting = self.contacts(planted, self.pushing_off(time))
+        held, lifting = self.contacts(planted, pushing)
         solving = perf_counter()
         solution = self.qp.solve(self._context, tasks, held, lifting)
         self.timings["qp"] += perf_counter() - solving
@@ -334,65 +338,69 @@ class WholeBodyController(LeafSystem):
 
     # --- the tasks -----------------------------------------------------------------
 
-    def planted(self, time: float) -> dict[str, bool]:
-        """The soles the controller stands on at `time`: those the clip has
-        down that are down (a corner within `TOUCHING` of the floor). A foot
-        the clip has landed that is still in the air stays a swing foot,
-        drawn to its footstep on the floor; held still as planted it would
-        hover (the robots that fell at the end of the walk stood on one leg,
-        the other 3 cm up). A foot pushing off (`pushing_off`) is down if
-        its edge is."""
+    def planted(self, time: float, pushing: dict[str, np.ndarray] | None = None) -> dict[str, bool]:
+        """The soles the controller stands on at `time` (the reference set to
+        it): those the clip has down that are down (a corner within
+        `TOUCHING` of the floor). A foot the clip has landed that is still in
+        the air stays a swing foot, drawn to its footstep on the floor; held
+        still as planted it would hover (the robots that fell at the end of
+        the walk stood on one leg, the other 3 cm up). A foot pushing off
+        (`pushing`, by default `pushing_off(time)`) is down if the corners it
+        pushes off on are."""
         plant, context = self._plant, self._context
-        out, pushing = {}, self.pushing_off(time)
+        pushing = self.pushing_off(time) if pushing is None else pushing
+        out = {}
         for name, down in self.plan.planted(time).items():
             sole = self._soles.get(name)
-            down = down or name in pushing
-            if down and sole is not None:
-                corners = plant.EvalBodyPoseInWorld(context, sole.body).multiply(sole.corners.T)
-                down = bool(corners[2].min() < TOUCHING)
+            if sole is not None and (down or name in pushing):
+                corners = plant.EvalBodyPoseInWorld(context, sole.body).multiply(sole.corners.T)[2]
+                down = bool(corners[pushing.get(name, slice(None))].min() < TOUCHING)
             out[name] = down
         return out
 
     def pushing_off(self, time: float) -> dict[str, np.ndarray]:
         """The feet pushing off at `time` (the reference set to it), each with
-        the corners it stands on ((K,) bools): per foot the clip has lifted,
-        in the first half of its swing, whose sole the clip still has on the
-        floor pitched over an edge, that edge (`TOE_DOWN`, `TOE_PITCH`,
-        `TOE_BAND`); else, at the very start of its swing (`PUSH_OFF_SWING`),
-        with the other foot down and a step to take, its edge toward its next
-        footstep. Held there, the trailing foot pushes the body on as a
-        person's toes do while the other lands: without it H1 walked at
+        the corners it pushes off on ((K,) bools). A foot the clip has lifted,
+        in the first half of its swing (`TOE_SWING`), whose sole the clip
+        still has on the floor pitched over an edge: that edge (`TOE_DOWN`,
+        `TOE_PITCH`, `TOE_BAND`). Else, just lifted (`PUSH_OFF_TIME`), with
+        the other foot down and a step to take (`PUSH_OFF_STEP`): its edge
+        toward its next footstep, along the sole's length or across it
+        (`PUSH_OFF_EDGE`). Held there, the trailing foot pushes the body on
+        as a person's toes do while the other lands: without it H1 walked at
         0.74-0.87 of the clip's pace, each landing foot braking a body that
         nothing had pushed."""
         plant, reference, out = self._plant, self._reference, {}
         clip_planted = self.plan.planted(time)
         for name, down in clip_planted.items():
             sole = self._soles.get(name)
-            if down or sole is None:
-                continue
-            progress = self.plan.swing_progress(name, time)
-            if progress >= 0.5:
+            if down or sole is None or self.plan.swing_progress(name, time) >= TOE_SWING:
                 continue
             pose = plant.EvalBodyPoseInWorld(reference, sole.body)
             heights = pose.multiply(sole.corners.T)[2]
             if heights.min() < TOE_DOWN and np.ptp(heights) > TOE_PITCH:
                 out[name] = heights < heights.min() + TOE_BAND
                 continue
-            if progress >= PUSH_OFF_SWING or not any(d for other, d in clip_planted.items() if other != name):
+            other_down = any(clip_planted.get(other) for other in self._soles if other != name)
+            if not other_down or self.plan.since_lifting(name, time) >= PUSH_OFF_TIME:
                 continue
             self.plan.set_reference(self._nearby, time + self.plan.until_landing(name, time))
             step = plant.EvalBodyPoseInWorld(self._nearby, sole.body).translation() - pose.translation()
             way = (pose.rotation().inverse() @ np.append(step[:2], 0.0))[:2]  # in the sole's frame
             if np.linalg.norm(way) >= PUSH_OFF_STEP:
-                along = sole.corners[:, :2] @ (way / np.linalg.norm(way))
+                axis = int(np.argmax(np.abs(way)))  # an edge of the sole, not a corner: a diagonal step takes the
+                along = np.sign(way[axis]) * sole.corners[:, axis]  # nearer of its length and its width
                 out[name] = along > along.max() - PUSH_OFF_EDGE
         return out
 
     def contacts(self, planted: dict[str, bool], pushing: dict[str, np.ndarray] | None = None) -> tuple[dict, dict]:
         """Which corners of each planted sole the QP holds, and which may lift
-        (by name, (K,) bools). A foot pushing off (`pushing`: by name, the
-        corners it pushes off on, `pushing_off`) is held there. A sole that rolls on an edge (`_rolls_on_edges`) and
-        is turned about its length stands on its lower edge: held there, its
+        (by name, (K,) bools). A foot pushing off (`pushing`, by name the
+        corners it pushes off on: `pushing_off`) is held on that whole edge,
+        even on a sole rolled about its length (held at the one corner of
+        the edge on its lower side, H1's walks lost pace and its box carry
+        fell). A sole that rolls on an edge (`_rolls_on_edges`) and is
+        turned about its length stands on its lower edge: held there, its
         other corners free to lift. Flat, with both feet down and the ZMP
         plan asking the CoM sideways, both such soles are held at their edge
         on that side, so the legs can lean as a parallelogram (the body's
@@ -404,7 +412,7 @@ class WholeBodyController(LeafSystem):
             if not planted.get(name):
                 continue
             held[name] = np.ones(len(sole.corners), bool)
-            if pushing and name in pushing:
+            if name in (pushing or {}):
                 held[name], lifting[name] = pushing[name], ~pushing[name]
                 continue
             if not self._rolls_on_edges[name]:
