@@ -74,8 +74,8 @@ TOE_DOWN, TOE_BAND, TOE_PITCH, TOE_SWING = 0.005, 0.005, 0.01, 0.5
 # A foot the clip lifts flat (H1's: its leg cannot reach the floor at the person's push-off) pushes off
 # all the same for `PUSH_OFF_TIME` (s) after the clip lifts it (a 30 fps clip's first frame up) while the
 # other foot is down, if it is going at least `PUSH_OFF_STEP` (m) to its next footstep: on its edge toward it
-# (the corners within `PUSH_OFF_EDGE` (m) of the furthest that way, along the sole's length or across it:
-# its toes walking forward, its heel walking backwards, its left edge stepping to the left).
+# (the corners within `PUSH_OFF_EDGE` (m) of the furthest that way: its toes walking forward, its heel
+# walking backwards, its left edge stepping to the left).
 PUSH_OFF_TIME, PUSH_OFF_STEP, PUSH_OFF_EDGE = 0.05, 0.05, 0.02
 FOOTING_EASING = 0.6  # s: the time constant over which the tracked clip moves to where the feet stand
 
@@ -365,11 +365,12 @@ class WholeBodyController(LeafSystem):
         still has on the floor pitched over an edge: that edge (`TOE_DOWN`,
         `TOE_PITCH`, `TOE_BAND`). Else, just lifted (`PUSH_OFF_TIME`), with
         the other foot down and a step to take (`PUSH_OFF_STEP`): its edge
-        toward its next footstep, along the sole's length or across it
-        (`PUSH_OFF_EDGE`). Held there, the trailing foot pushes the body on
-        as a person's toes do while the other lands: without it H1 walked at
-        0.74-0.87 of the clip's pace, each landing foot braking a body that
-        nothing had pushed."""
+        toward its next footstep (`PUSH_OFF_EDGE`; a corner, stepping
+        diagonally: snapped to the sole's length or width, H1's turning walk
+        fell from one start in eight). Held there, the trailing foot pushes
+        the body on as a person's toes do while the other lands: without it
+        H1 walked at 0.74-0.87 of the clip's pace, each landing foot braking
+        a body that nothing had pushed."""
         plant, reference, out = self._plant, self._reference, {}
         clip_planted = self.plan.planted(time)
         for name, down in clip_planted.items():
@@ -388,8 +389,7 @@ class WholeBodyController(LeafSystem):
             step = plant.EvalBodyPoseInWorld(self._nearby, sole.body).translation() - pose.translation()
             way = (pose.rotation().inverse() @ np.append(step[:2], 0.0))[:2]  # in the sole's frame
             if np.linalg.norm(way) >= PUSH_OFF_STEP:
-                axis = int(np.argmax(np.abs(way)))  # an edge of the sole, not a corner: a diagonal step takes the
-                along = np.sign(way[axis]) * sole.corners[:, axis]  # nearer of its length and its width
+                along = sole.corners[:, :2] @ (way / np.linalg.norm(way))
                 out[name] = along > along.max() - PUSH_OFF_EDGE
         return out
 
