@@ -125,3 +125,27 @@ def test_a_loop_is_planned_from_its_own_first_frame_and_on_across_its_seams():
         before, after = (plan.planned_com(seam + step) for step in (-1e-4, 1e-4))
         np.testing.assert_allclose(before[0], after[0], atol=1e-3)
         np.testing.assert_allclose(before[1], after[1], atol=0.02)
+
+
+def test_the_plans_velocities_are_those_its_reference_state_has():
+    """`velocities` (no context set: the controller's reference accelerations
+    take two a step) gives the generalized velocities `set_reference` sets, on
+    a looped walk's passes (turned and shifted) and past the end of a clip
+    that stops (at rest)."""
+    from pydrake.multibody.plant import MultibodyPlant
+
+    from hotu_drake import embodiment
+    from hotu_drake.control.clip_plan import ClipPlan
+    from hotu_drake.retarget.pipeline import library_clip
+
+    emb = embodiment.load("udh", "none")
+    plant = MultibodyPlant(0.0)
+    model = emb.add_to_plant(plant, builtin_pd=False)
+    plant.Finalize()
+    context = plant.CreateDefaultContext()
+    for loop in (True, False):
+        plan = ClipPlan(library_clip("walk_turn_left", "udh"), plant, model, emb, context, loop=loop)
+        for time in np.linspace(0.0, 2.5 * plan.period, 41):
+            plan.set_reference(context, time)
+            np.testing.assert_allclose(plan.velocities(time), plant.GetVelocities(context), rtol=0, atol=1e-12)
+        assert loop or not plan.velocities(plan.period + 0.5).any()

@@ -170,6 +170,9 @@ class ClipPlan:
         self._joint_positions = np.array([joint.position_start() for joint in joints])
         self._joint_velocities = np.array([joint.velocity_start() for joint in joints])
         self._root = plant.GetBodyByName(embodiment.spec.root.name, model)
+        # The floating root's velocities (angular, then linear: `SetFreeBodySpatialVelocity`'s order).
+        start = self._root.floating_velocities_start_in_v() if embodiment.floating_base else 0
+        self._root_velocities = np.arange(6) + start
         self.period = (clip.num_frames - 1) / clip.fps
         self._step = Planar()  # what one pass of a loop does to the root: turn, then shift
         if loop and embodiment.floating_base:
@@ -237,6 +240,21 @@ class ClipPlan:
         if still:
             omega, linear = np.zeros(3), np.zeros(3)
         self.plant.SetFreeBodySpatialVelocity(context, self._root, SpatialVelocity(turn @ omega, turn @ linear))
+
+    def velocities(self, time: float) -> np.ndarray:
+        """The plant's generalized velocities in the clip's state at `time`
+        (those `set_reference` sets, with no context to set: the floating
+        root's angular then linear velocity in the world, then the joints')."""
+        index, clip_time = self.pass_at(time)
+        out = np.zeros(self.plant.num_velocities())
+        if not self.loop and time >= self.period:  # a clip that has ended holds its last pose, at rest
+            return out
+        out[self._joint_velocities] = self.playback.lerp(self.clip.joint_velocities, clip_time)
+        if self.embodiment.floating_base:
+            _, _, omega, linear = self.playback.root_at(clip_time)
+            turn = self.placement(index).rotation
+            out[self._root_velocities] = np.r_[turn @ omega, turn @ linear]
+        return out
 
     def planted(self, time: float) -> dict[str, bool]:
         """Per contact name (`left_foot`, `right_foot`), whether the clip has that foot down at `time`."""

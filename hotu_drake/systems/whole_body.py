@@ -132,7 +132,7 @@ class WholeBodyController(LeafSystem):
         plant.Finalize()
         self._context = plant.CreateDefaultContext()
         self._reference = plant.CreateDefaultContext()
-        self._nearby = plant.CreateDefaultContext()  # the reference just before and after, for its accelerations
+        self._nearby = plant.CreateDefaultContext()  # scratch: the reference at another time (`pushing_off`)
         self._reference_accelerations = np.zeros(plant.num_velocities())
         self._step = 0.5 / clip.fps
         self._shift = np.zeros(3)  # where the planted feet stand against the clip's (`_footing`)
@@ -329,12 +329,9 @@ class WholeBodyController(LeafSystem):
 
     def _accelerations_at(self, time: float) -> np.ndarray:
         """The reference's generalized accelerations at `time` (a central difference of its velocities)."""
-        plant, nearby, step = self._plant, self._nearby, self._step
-        velocities = []
-        for at in (time - step, time + step):
-            self.plan.set_reference(nearby, max(at, 0.0))
-            velocities.append(plant.GetVelocities(nearby))
-        return (velocities[1] - velocities[0]) / (time + step - max(time - step, 0.0))
+        step = self._step
+        before, after = self.plan.velocities(max(time - step, 0.0)), self.plan.velocities(time + step)
+        return (after - before) / (time + step - max(time - step, 0.0))
 
     # --- the tasks -----------------------------------------------------------------
 
