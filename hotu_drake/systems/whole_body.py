@@ -41,7 +41,10 @@ class TrackingGains:
 
     com_weight: float = 1000.0
     com_height_stiffness: float = 50.0
-    body_weight: float = 10.0  # pelvis and torso orientation
+    # Pelvis and torso orientation, for a CoM `BODY_WEIGHT_HEIGHT` high; a robot on feet scales it by the
+    # square of its CoM's height over that, so that turning the body and moving the CoM trade alike at every
+    # size (a CoM accelerating at a asks the body to turn at about a / height).
+    body_weight: float = 10.0
     body_stiffness: float = 100.0
     swing_weight: float = 70.0
     swing_stiffness: float = 400.0
@@ -77,6 +80,7 @@ TOE_DOWN, TOE_BAND, TOE_PITCH, TOE_SWING = 0.005, 0.005, 0.01, 0.5
 # (the corners within `PUSH_OFF_EDGE` (m) of the furthest that way: its toes walking forward, its heel
 # walking backwards, its left edge stepping to the left).
 PUSH_OFF_TIME, PUSH_OFF_STEP, PUSH_OFF_EDGE = 0.05, 0.05, 0.02
+BODY_WEIGHT_HEIGHT = 1.0  # m: the CoM height `TrackingGains.body_weight` is for (H1's 1.01; BRUCE's 0.41)
 FOOTING_EASING = 0.6  # s: the time constant over which the tracked clip moves to where the feet stand
 
 
@@ -157,6 +161,10 @@ class WholeBodyController(LeafSystem):
             for name, sole in self._soles.items()
         }
         self.qp = WholeBodyQp(plant, self._soles, embodiment.effort_limits)
+        # At 10 whatever the size, BRUCE (its CoM 0.41 m high) fell in both sidesteps and Walker (0.70 m) in
+        # leg_stretch from every start, turning the body where the CoM needed moving (BENCHMARKS.md).
+        scale = (self.plan.height / BODY_WEIGHT_HEIGHT) ** 2 if self._soles else 1.0
+        self._body_weight = self.gains.body_weight * scale
         # The posture task's Jacobian: it selects the joints' rows of vdot.
         self._joint_rows = np.zeros((len(self._actuated_v), plant.num_velocities()))
         self._joint_rows[np.arange(len(self._actuated_v)), self._actuated_v] = 1.0
@@ -435,7 +443,7 @@ class WholeBodyController(LeafSystem):
         tasks = self._balance_tasks(time, planted) if self._soles else []
         for body in self._bodies:
             jacobian, bias, target = self._body_rows(body, gains.body_stiffness, position=False)
-            tasks.append(Task(jacobian, bias, target, gains.body_weight))
+            tasks.append(Task(jacobian, bias, target, self._body_weight))
         for hand in self._hands:
             jacobian, bias, target = self._body_rows(hand, gains.hand_stiffness, position=True, offset=self._shift)
             tasks.append(Task(jacobian[3:], bias[3:], target[3:], gains.hand_weight))
