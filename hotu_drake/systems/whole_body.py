@@ -370,12 +370,12 @@ class WholeBodyController(LeafSystem):
         still has on the floor pitched over an edge: that edge (`TOE_DOWN`,
         `TOE_PITCH`, `TOE_BAND`). Else, just lifted (`PUSH_OFF_TIME`), with
         the other foot down and a step to take (`PUSH_OFF_STEP`): its edge
-        toward its next footstep (`PUSH_OFF_EDGE`; a corner, stepping
-        diagonally: snapped to the sole's length or width, H1's turning walk
-        fell from one start in eight). Held there, the trailing foot pushes
-        the body on as a person's toes do while the other lands: without it
-        H1 walked at 0.74-0.87 of the clip's pace, each landing foot braking
-        a body that nothing had pushed."""
+        toward its next footstep (`PUSH_OFF_EDGE`; stepping diagonally, a
+        single corner: an edge snapped to the sole's length or width lost
+        H1's turning walk one start in eight). Held there, the trailing foot
+        pushes the body on as a person's toes do while the other lands:
+        without it H1 walked at 0.74-0.87 of the clip's pace, each landing
+        foot braking a body that nothing had pushed."""
         plant, reference, out = self._plant, self._reference, {}
         clip_planted = self.plan.planted(time)
         for name, down in clip_planted.items():
