@@ -46,21 +46,36 @@ def test_the_planned_pressure_sits_under_the_stance_foot_and_moves_between_feet_
 
 def _stepping_plan(right_up: list[slice], loop: bool = True):
     """A UDH standing clip (1 s, 10 fps: frames 0-10) with its right foot up over `right_up`, as a plan."""
-    from pydrake.multibody.plant import MultibodyPlant
-
     from hotu_drake import embodiment
-    from hotu_drake.control.clip_plan import ClipPlan, standing_clip
+    from hotu_drake.control.clip_plan import standing_clip
 
     emb = embodiment.load("udh", "none")
     clip = standing_clip(emb, 1.0, fps=10.0)
     contacts = clip.contacts.copy()
     for frames in right_up:
         contacts[frames, 1] = False
-    stepping = dataclasses.replace(clip, source="a step", contacts=contacts)
+    return _plan(emb, dataclasses.replace(clip, source="a step", contacts=contacts), loop)[0]
+
+
+def _library_plan(robot: str, motion: str, loop: bool):
+    """The plan of a library motion on `robot`: (plan, plant, model, context)."""
+    from hotu_drake import embodiment
+    from hotu_drake.retarget.pipeline import library_clip
+
+    return _plan(embodiment.load(robot, "none"), library_clip(motion, robot), loop)
+
+
+def _plan(emb, clip, loop: bool):
+    """`clip`'s plan on a plant of its own: (plan, plant, model, context)."""
+    from pydrake.multibody.plant import MultibodyPlant
+
+    from hotu_drake.control.clip_plan import ClipPlan
+
     plant = MultibodyPlant(0.0)
     model = emb.add_to_plant(plant, builtin_pd=False)
     plant.Finalize()
-    return ClipPlan(stepping, plant, model, emb, plant.CreateDefaultContext(), loop=loop)
+    context = plant.CreateDefaultContext()
+    return ClipPlan(clip, plant, model, emb, context, loop=loop), plant, model, context
 
 
 def test_a_swing_foot_goes_from_its_last_frame_down_to_its_next():
@@ -105,19 +120,7 @@ def test_a_loop_is_planned_from_its_own_first_frame_and_on_across_its_seams():
     frame, where the robot starts (the plan's middle pass, which follows a
     pass before it, had H1's CoM 2.3 cm aside there, moving at 0.1 m/s);
     later passes the middle one; the planned CoM goes on across each seam."""
-    from pydrake.multibody.plant import MultibodyPlant
-
-    from hotu_drake import embodiment
-    from hotu_drake.control.clip_plan import ClipPlan
-    from hotu_drake.retarget.pipeline import library_clip
-
-    clip = library_clip("walk", "h1")
-    emb = embodiment.load("h1", "none")
-    plant = MultibodyPlant(0.0)
-    model = emb.add_to_plant(plant, builtin_pd=False)
-    plant.Finalize()
-    context = plant.CreateDefaultContext()
-    plan = ClipPlan(clip, plant, model, emb, context, loop=True)
+    plan, plant, model, context = _library_plan("h1", "walk", loop=True)
     plan.set_reference(context, 0.0)
     start = plant.CalcCenterOfMassPositionInWorld(context, [model])[:2]
     assert np.linalg.norm(plan.planned_com(0.0)[0] - start) < 0.005
@@ -132,19 +135,8 @@ def test_the_plans_velocities_are_those_its_reference_state_has():
     take two a step) gives the generalized velocities `set_reference` sets, on
     a looped walk's passes (turned and shifted) and past the end of a clip
     that stops (at rest)."""
-    from pydrake.multibody.plant import MultibodyPlant
-
-    from hotu_drake import embodiment
-    from hotu_drake.control.clip_plan import ClipPlan
-    from hotu_drake.retarget.pipeline import library_clip
-
-    emb = embodiment.load("udh", "none")
-    plant = MultibodyPlant(0.0)
-    model = emb.add_to_plant(plant, builtin_pd=False)
-    plant.Finalize()
-    context = plant.CreateDefaultContext()
     for loop in (True, False):
-        plan = ClipPlan(library_clip("walk_turn_left", "udh"), plant, model, emb, context, loop=loop)
+        plan, plant, _, context = _library_plan("udh", "walk_turn_left", loop)
         for time in np.linspace(0.0, 2.5 * plan.period, 41):
             plan.set_reference(context, time)
             np.testing.assert_allclose(plan.velocities(time), plant.GetVelocities(context), rtol=0, atol=1e-12)

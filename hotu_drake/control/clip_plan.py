@@ -15,7 +15,6 @@ from __future__ import annotations
 import numpy as np
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.multibody.math import SpatialVelocity
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.planning import ZmpPlanner
 from pydrake.trajectories import PiecewisePolynomial
@@ -170,9 +169,10 @@ class ClipPlan:
         self._joint_positions = np.array([joint.position_start() for joint in joints])
         self._joint_velocities = np.array([joint.velocity_start() for joint in joints])
         self._root = plant.GetBodyByName(embodiment.spec.root.name, model)
-        # The floating root's velocities (angular, then linear: `SetFreeBodySpatialVelocity`'s order).
+        # The floating root's velocities (its joint's: angular, then linear, in the world), and all the clip sets.
         start = self._root.floating_velocities_start_in_v() if embodiment.floating_base else 0
-        self._root_velocities = np.arange(6) + start
+        self._root_velocities = np.arange(6) + start if embodiment.floating_base else np.zeros(0, int)
+        self._clip_velocities = np.r_[self._joint_velocities, self._root_velocities]
         self.period = (clip.num_frames - 1) / clip.fps
         self._step = Planar()  # what one pass of a loop does to the root: turn, then shift
         if loop and embodiment.floating_base:
@@ -224,22 +224,17 @@ class ClipPlan:
     def set_reference(self, context, time: float) -> None:
         """Set `context` (of the plan's plant) to the clip's state at `time`."""
         index, clip_time = self.pass_at(time)
-        q, v = self.playback.joints_at(clip_time)
-        still = not self.loop and time >= self.period  # a clip that has ended holds its last pose, at rest
         positions, velocities = self.plant.GetPositions(context), self.plant.GetVelocities(context)
-        positions[self._joint_positions], velocities[self._joint_velocities] = q, 0.0 * v if still else v
+        positions[self._joint_positions] = self.playback.lerp(self.clip.joint_positions, clip_time)
+        velocities[self._clip_velocities] = self.velocities(time)[self._clip_velocities]
         self.plant.SetPositions(context, positions)
         self.plant.SetVelocities(context, velocities)
         if not self.embodiment.floating_base:
             return
-        quaternion, position, omega, linear = self.playback.root_at(clip_time)
+        quaternion, position, _, _ = self.playback.root_at(clip_time)
         placement = self.placement(index)
-        turn = placement.rotation
-        pose = RigidTransform(RotationMatrix(turn), placement.shift) @ RigidTransform(Quaternion(quaternion), position)
-        self.plant.SetFreeBodyPose(context, self._root, pose)
-        if still:
-            omega, linear = np.zeros(3), np.zeros(3)
-        self.plant.SetFreeBodySpatialVelocity(context, self._root, SpatialVelocity(turn @ omega, turn @ linear))
+        pose = RigidTransform(RotationMatrix(placement.rotation), placement.shift)
+        self.plant.SetFreeBodyPose(context, self._root, pose @ RigidTransform(Quaternion(quaternion), position))
 
     def velocities(self, time: float) -> np.ndarray:
         """The plant's generalized velocities in the clip's state at `time`
@@ -250,9 +245,10 @@ class ClipPlan:
         if not self.loop and time >= self.period:  # a clip that has ended holds its last pose, at rest
             return out
         out[self._joint_velocities] = self.playback.lerp(self.clip.joint_velocities, clip_time)
-        if self.embodiment.floating_base:
-            _, _, omega, linear = self.playback.root_at(clip_time)
+        if len(self._root_velocities):
             turn = self.placement(index).rotation
+            omega = self.playback.lerp(self.clip.root_angular_velocity, clip_time)
+            linear = self.playback.lerp(self.clip.root_linear_velocity, clip_time)
             out[self._root_velocities] = np.r_[turn @ omega, turn @ linear]
         return out
 
