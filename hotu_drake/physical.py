@@ -8,7 +8,8 @@ embodiment and records, at the clip's own frames, what the simulated robot
 did: its states and key bodies (a `MotionClip` whose contacts are the feet
 the floor actually carried), the controller's actions, the torques the
 plant applied and the floor's force on each foot; and a report next to the
-clip: whether and when it fell, its travel against the clip's, joint and
+clip: whether and when it fell (in the clip or in the `SETTLE` s after
+it, its last frame held), its travel against the clip's, joint and
 key-body RMS against the clip, the share of frames with a joint at its
 torque limit, the least margin of its centre of pressure inside the
 support of its loaded feet, the wall time, and for a robot that fell what
@@ -32,6 +33,9 @@ from hotu_drake.rotations import matrix_to_quat
 LOADED = 0.05  # a foot carries the robot when the floor pushes it with this share of its weight or more
 SATURATED = 0.99  # a joint is at its torque limit at this share of it
 FLIGHT = 0.1  # s: no foot down for this long is a flight phase (a jump), which the controller does not plan
+# s: a clip that ends is held at its last frame this long after it: a robot still falling as the clip ended
+# (H1 stopping in start_stop, 3 starts of 10) stood through the clip and fell just after it.
+SETTLE = 1.0
 OVER_LIMIT = 0.05  # a joint the clip asks more than its limit of on this share of its frames is past what it can do
 
 
@@ -54,11 +58,15 @@ class Performance:
         return self.clip.save(path, extra)
 
 
-def perform(clip: MotionClip, hands: str = "none", control_rate: float = 60.0, loop: bool = False) -> Performance:
+def perform(
+    clip: MotionClip, hands: str = "none", control_rate: float = 60.0, loop: bool = False, settle: float = SETTLE
+) -> Performance:
     """Perform `clip` (of any embodiment, CURI on its wheeled base; starting on its first frame)
     under the whole-body controller at `control_rate` (the plant's step too),
     over the clip's duration (`loop`: tracked as a loop, its plan looking
-    ahead into the next pass)."""
+    ahead into the next pass), then, a clip that ends, `settle` s more with
+    its last frame held: a robot that falls just after the clip's end did
+    not perform it (the recorded clip is the performed frames alone)."""
     from hotu_drake.diagrams import build_simulation
     from hotu_drake.scenario import InitialCondition, Scenario, WholeBodyTracking
 
@@ -117,6 +125,12 @@ def perform(clip: MotionClip, hands: str = "none", control_rate: float = 60.0, l
             break
     wall = time.perf_counter() - start
     done = len(record["q"])
+    settled = settle if fell_at is None and not loop else 0.0
+    for step in range(1, int(round(settled * clip.fps)) + 1):
+        sim.simulator.AdvanceTo((frames - 1 + step) / clip.fps)
+        if fall(context):
+            fell_at = (frames - 1 + step) / clip.fps
+            break
     forces = np.array(record["forces"])
     performed = MotionClip.from_positions(
         emb.name,
@@ -142,6 +156,7 @@ def perform(clip: MotionClip, hands: str = "none", control_rate: float = 60.0, l
         corners, pressure = np.array(record["corners"]), np.array(record["pressure"])
         report["least_pressure_margin_m"] = _least_margin(corners, down, pressure)
     report |= {"fell": fell_at is not None, "fell_at_s": fell_at, "frames": done, "wall_time_s": round(wall, 2)}
+    report["settle_s"] = settled
     error = controller.prediction_error()
     report["com_acceleration_error_m_s2"] = None if error is None else [round(float(e), 3) for e in error]
     torques = np.array(record["torques"])

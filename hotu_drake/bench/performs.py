@@ -2,7 +2,8 @@
 
 Each library motion once (`physical.perform` on the robot's clip, `loop:
 false`; `--starts N`: from its first N frames, the table then giving how
-many of the N it stood through): whether the robot stayed up, its travel against the clip's, the
+many of the N it stood through): whether the robot stayed up (through
+the clip and `physical.SETTLE` s after it), its travel against the clip's, the
 share of frames with a joint at its torque limit, and, for a robot that
 fell, what in the clip is past it (`Performance.report["cannot"]`). The
 library walk looped for 10 s (`whole_body_walk_<robot>`) from several

@@ -32,10 +32,15 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 
 from hotu_drake.embodiment import Embodiment
+from hotu_drake.plant import GROUND_FRICTION
 
 CONTACT_WEIGHT = 1e3  # a planted corner's acceleration, against the tasks' (order 1-100): soft, as the
 # torque limits are hard (with both hard, a clip that needs more torque than the robot has leaves no solution)
-FRICTION = 0.8  # a little under the floor's (1.0): the pyramid is inside the cone
+# The friction cone the QP plans within: the floor's. Its pyramid is the square inscribed in it (|f_x|,
+# |f_y| <= FRICTION / sqrt(2) f_z): with the square's side at 0.8 (its corners 1.13 f_z out, past the floor's
+# 1.0), H1's planted foot took its turning walk's yaw on a corner pushed sideways past what the floor holds,
+# and turned 5-18 degrees on the floor. A cone under the floor's (0.9) lost more starts than it saved.
+FRICTION = GROUND_FRICTION
 REGULARIZATION = 1e-4
 # 1/s: a planted corner's desired acceleration is this times its velocity, against it (zero at rest): a
 # sole that has started to slide or turn is stopped, not only kept from accelerating. At 20 (none before):
@@ -124,11 +129,15 @@ class WholeBodyQp:
         # corner's height (kept from sinking when it may lift), the friction pyramids, the forces' bounds (zero
         # off the floor, f_z >= 0 on it).
         self._rows = len(self.floating) + len(self._limits) + self.corners
-        pyramid = np.zeros((4 * self.corners, n))
-        for k in range(self.corners):  # |f_x|, |f_y| <= mu f_z
-            for row, (axis, sign) in enumerate(((0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0))):
-                pyramid[4 * k + row, nv + 3 * k + axis] = sign
-                pyramid[4 * k + row, nv + 3 * k + 2] = -friction
+        # Each corner's pyramid: the octagon inscribed in its cone ||f_xy|| <= friction f_z (faces 45 degrees
+        # apart, each at friction cos(22.5) from the axis).
+        faces = [np.round([np.cos(a), np.sin(a)], 12) for a in np.arange(8) * np.pi / 4]
+        reach = friction * np.cos(np.pi / 8)
+        pyramid = np.zeros((len(faces) * self.corners, n))
+        for k in range(self.corners):  # normal . f_xy <= reach f_z
+            for row, normal in enumerate(faces):
+                pyramid[len(faces) * k + row, nv + 3 * k : nv + 3 * k + 2] = normal
+                pyramid[len(faces) * k + row, nv + 3 * k + 2] = -reach
         # The constraint matrix, dense: its first `_rows` rows set at each step, the rest fixed.
         self._constraints = np.vstack([np.ones((self._rows, n)), pyramid, np.eye(n)[nv:]])
         self._lifting = slice(self._rows - self.corners, self._rows)  # the corners' height rows (vdot only)
