@@ -372,7 +372,7 @@ def test_the_looped_library_walk_for_ten_seconds(robot):
     looped with its root motion, no fall, the pelvis' travel within 15% of
     the clip's. Walker and NAVIAI walked from each of six starts 0-0.05 s
     into the clip in every run measured, the UDH from each of 20 since its
-    trailing foot pushes off; H1 from each of 20 too, but at 0.85-0.91 of
+    trailing foot pushes off; H1 from each of 20 too, but at 0.86-0.91 of
     the clip's travel (BENCHMARKS.md): a bound it would meet on one
     machine and miss on another."""
     from hotu_drake.diagrams import run_scenario
