@@ -12,9 +12,9 @@ clip: whether and when it fell (in the clip or in the `SETTLE` s after
 it, its last frame held), its travel against the clip's, joint and
 key-body RMS against the clip, the share of frames with a joint at its
 torque limit, the least margin of its centre of pressure inside the
-support of its loaded feet, the wall time, and for a robot that fell what
-in the clip is past it (`cannot`: a flight phase, a joint asked more than
-its torque limit).
+support of its loaded feet, the wall time (of the clip's frames), and
+for a robot that fell what in the clip is past it (`cannot`: a flight
+phase, a joint asked more than its torque limit).
 """
 
 from __future__ import annotations
@@ -123,14 +123,17 @@ def perform(
         if fall(context):
             fell_at = frame / clip.fps
             break
-    wall = time.perf_counter() - start
+    wall = time.perf_counter() - start  # through the clip's frames
     done = len(record["q"])
-    settled = settle if fell_at is None and not loop else 0.0
-    for step in range(1, int(round(settled * clip.fps)) + 1):
-        sim.simulator.AdvanceTo((frames - 1 + step) / clip.fps)
-        if fall(context):
-            fell_at = (frames - 1 + step) / clip.fps
-            break
+    error = controller.prediction_error()  # over the clip's frames, as every other figure
+    settled = 0.0  # s held after the clip's end, as simulated
+    if fell_at is None and not loop:
+        for step in range(1, int(round(settle * clip.fps)) + 1):
+            sim.simulator.AdvanceTo((frames - 1 + step) / clip.fps)
+            settled = step / clip.fps
+            if fall(context):
+                fell_at = (frames - 1 + step) / clip.fps
+                break
     forces = np.array(record["forces"])
     performed = MotionClip.from_positions(
         emb.name,
@@ -156,8 +159,7 @@ def perform(
         corners, pressure = np.array(record["corners"]), np.array(record["pressure"])
         report["least_pressure_margin_m"] = _least_margin(corners, down, pressure)
     report |= {"fell": fell_at is not None, "fell_at_s": fell_at, "frames": done, "wall_time_s": round(wall, 2)}
-    report["settle_s"] = settled
-    error = controller.prediction_error()
+    report["settle_s"] = round(settled, 3)
     report["com_acceleration_error_m_s2"] = None if error is None else [round(float(e), 3) for e in error]
     torques = np.array(record["torques"])
     saturated = (np.abs(torques) >= SATURATED * emb.effort_limits).mean(axis=0) if len(torques) else None

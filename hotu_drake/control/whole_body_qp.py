@@ -36,10 +36,11 @@ from hotu_drake.plant import GROUND_FRICTION
 
 CONTACT_WEIGHT = 1e3  # a planted corner's acceleration, against the tasks' (order 1-100): soft, as the
 # torque limits are hard (with both hard, a clip that needs more torque than the robot has leaves no solution)
-# The friction cone the QP plans within: the floor's. Its pyramid is the square inscribed in it (|f_x|,
-# |f_y| <= FRICTION / sqrt(2) f_z): with the square's side at 0.8 (its corners 1.13 f_z out, past the floor's
-# 1.0), H1's planted foot took its turning walk's yaw on a corner pushed sideways past what the floor holds,
-# and turned 5-18 degrees on the floor. A cone under the floor's (0.9) lost more starts than it saved.
+# The friction cone the QP plans within: the floor's. Each corner's pyramid is the octagon inscribed in it
+# (`WholeBodyQp`). The square |f_x|, |f_y| <= 0.8 f_z it replaces had corners 1.13 f_z out, past the floor's
+# 1.0: H1's planted foot took its turning walk's forward push on a corner pushed sideways past what the floor
+# holds, and turned 7-18 degrees on the floor. Tried and left out: the square inscribed in the cone (side
+# 0.707; H1's looped walk fell from 2 of 20 seeds), or in a cone under the floor's (0.9; side 0.636).
 FRICTION = GROUND_FRICTION
 REGULARIZATION = 1e-4
 # 1/s: a planted corner's desired acceleration is this times its velocity, against it (zero at rest): a
