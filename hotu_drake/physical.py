@@ -34,7 +34,7 @@ LOADED = 0.05  # a foot carries the robot when the floor pushes it with this sha
 SATURATED = 0.99  # a joint is at its torque limit at this share of it
 FLIGHT = 0.1  # s: no foot down for this long is a flight phase (a jump), which the controller does not plan
 # s: a clip that ends is held at its last frame this long after it: a robot still falling as the clip ended
-# (H1 stopping in start_stop, 3 starts of 10) stood through the clip and fell just after it.
+# (H1 stopping in start_stop, 4 starts of 10) stood through the clip and fell just after it.
 SETTLE = 1.0
 OVER_LIMIT = 0.05  # a joint the clip asks more than its limit of on this share of its frames is past what it can do
 
@@ -129,10 +129,11 @@ def perform(
     settled = 0.0  # s held after the clip's end, as simulated
     if fell_at is None and not loop:
         for step in range(1, int(round(settle * clip.fps)) + 1):
-            sim.simulator.AdvanceTo((frames - 1 + step) / clip.fps)
+            at = (frames - 1 + step) / clip.fps
+            sim.simulator.AdvanceTo(at)
             settled = step / clip.fps
             if fall(context):
-                fell_at = (frames - 1 + step) / clip.fps
+                fell_at = at
                 break
     forces = np.array(record["forces"])
     performed = MotionClip.from_positions(

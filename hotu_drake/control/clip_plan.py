@@ -170,8 +170,9 @@ class ClipPlan:
         self._joint_velocities = np.array([joint.velocity_start() for joint in joints])
         self._root = plant.GetBodyByName(embodiment.spec.root.name, model)
         # The floating root's velocities (its joint's: angular, then linear, in the world), and all the clip sets.
-        start = self._root.floating_velocities_start_in_v() if embodiment.floating_base else 0
-        self._root_velocities = np.arange(6) + start if embodiment.floating_base else np.zeros(0, int)
+        self._root_velocities = np.zeros(0, int)
+        if embodiment.floating_base:
+            self._root_velocities = self._root.floating_velocities_start_in_v() + np.arange(6)
         self._clip_velocities = np.r_[self._joint_velocities, self._root_velocities]
         self.period = (clip.num_frames - 1) / clip.fps
         self._step = Planar()  # what one pass of a loop does to the root: turn, then shift
