@@ -12,8 +12,9 @@ clip: whether and when it fell (in the clip or in the `SETTLE` s after
 it, its last frame held), its travel against the clip's, joint and
 key-body RMS against the clip, the share of frames with a joint at its
 torque limit, the least margin of its centre of pressure inside the
-support of its loaded feet, the wall time (of the clip's frames), and
-for a robot that fell what in the clip is past it (`cannot`: a flight
+support of its loaded feet, the wall time (of the clip's frames), the
+steps the controller took of its own to catch the robot, and for a robot
+that fell what in the clip is past it (`cannot`: a flight
 phase, a joint asked more than its torque limit).
 """
 
@@ -161,6 +162,9 @@ def perform(
         report["least_pressure_margin_m"] = _least_margin(corners, down, pressure)
     report |= {"fell": fell_at is not None, "fell_at_s": fell_at, "frames": done, "wall_time_s": round(wall, 2)}
     report["settle_s"] = round(settled, 3)
+    # The steps the controller took of its own to catch the robot (`whole_body.WholeBodyController._start_catch`):
+    # when (s, the clip's time; in the settle after it, past its end) and with which foot.
+    report["catch_steps"] = [[round(at, 3), foot] for at, foot in controller.catches]
     report["com_acceleration_error_m_s2"] = None if error is None else [round(float(e), 3) for e in error]
     torques = np.array(record["torques"])
     saturated = (np.abs(torques) >= SATURATED * emb.effort_limits).mean(axis=0) if len(torques) else None

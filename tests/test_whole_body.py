@@ -13,6 +13,7 @@ from hotu_drake.errors import InputError
 from hotu_drake.motion.playback import ClipPlayback
 from hotu_drake.retarget.pipeline import library_clip
 from hotu_drake.scenario import InitialCondition, Scenario, WholeBodyTracking, load_scenario
+from hotu_drake.systems import whole_body
 from hotu_drake.systems.perturbation import CubeLaunch
 from hotu_drake.systems.whole_body import WholeBodyController
 
@@ -201,6 +202,50 @@ def test_h1_squats_under_the_controller_without_falling():
     errors = np.subtract(heights, goals)
     assert np.max(np.abs(errors)) < 0.1
     assert min(heights) < min(goals) + 0.03 and min(goals) < goals[0] - 0.2  # a real squat, performed
+    assert controller.catches == []  # a robot that keeps its balance takes no step of its own
+
+
+def _h1_standing_pushed(tmp_path, momentum: float):
+    """H1 standing under the controller, a cube of `momentum` (kg m/s, at 4
+    m/s) thrown at its back at 0.5 s: the simulation, run 3 s or to a fall."""
+    emb = embodiment.load("h1", "none")
+    path = standing_clip(emb, 3.0).save(tmp_path / "standing_h1.npz")
+    push = CubeLaunch(time=0.5, start=[-1.0, 0.0, 1.25], speed=4.0, mass=momentum / 4.0, size=0.1, aim_height=0.2)
+    scenario = Scenario(
+        embodiment="h1",
+        driver=WholeBodyTracking(motion=str(path), loop=False),
+        initial=InitialCondition(reference_time=0.0),
+        control_rate=60.0,
+        perturbations=[push],
+    )
+    sim = build_simulation(scenario)
+    fall, context = sim.fall_check(), sim.plant_context()
+    for t in np.arange(0.05, 3.0001, 0.05):
+        sim.simulator.AdvanceTo(t)
+        if fall(context):
+            break
+    return sim
+
+
+def test_a_push_the_ankles_cannot_hold_is_caught_by_a_step(tmp_path, monkeypatch):
+    """H1 standing, pushed in the back with 20 kg m/s: its capture point
+    leaves its soles, and it steps forward (`_start_catch`) and stays up;
+    with catch steps off it falls."""
+    sim = _h1_standing_pushed(tmp_path, 20.0)
+    controller, context = sim.systems["whole_body_controller"], sim.plant_context()
+    assert not sim.fall_check()(context)
+    assert controller.catches and 0.5 < controller.catches[0][0] < 1.5, controller.catches
+    # Stepped forward: the feet stand ahead of where they stood, and the QP stands on both again.
+    plant = sim.plant
+    feet = [
+        plant.EvalBodyPoseInWorld(context, plant.GetBodyByName(sole.body.name(), sim.model)).translation()
+        for sole in controller.soles.values()
+    ]
+    assert np.mean(feet, axis=0)[0] > 0.05  # 0.10 m (measured), from -0.03 standing
+    monkeypatch.setattr(whole_body, "CATCH_MARGIN", np.inf)
+    unstepped = _h1_standing_pushed(tmp_path, 20.0)
+    assert unstepped.fall_check()(unstepped.plant_context())
+    assert unstepped.systems["whole_body_controller"].catches == []
 
 
 def test_a_trailing_foot_pushes_off():
@@ -543,12 +588,15 @@ def test_bench_performs_and_pushes_report_falls_per_robot_and_motion():
     assert refused.returncode != 0 and "whole_body_walk_curi" in refused.stderr
 
 
-def test_a_fall_just_after_the_clip_ends_is_a_fall():
+def test_a_fall_just_after_the_clip_ends_is_a_fall(monkeypatch):
     """A clip whose last frame puts the body (feet and all) half a metre
-    ahead of where the robot stands: the robot stands through the clip (that
-    frame lasts one frame) and falls as it tries to hold it (0.9 s after the
-    end, measured); the report says so, and without the settle it would not.
-    The same clip without the jump is held to the settle's end."""
+    ahead of where the robot stands: the robot, stepping of its own, steps
+    after it (from 0.28 s: the plan, looking ahead, moves the CoM before the
+    jump) and stands; the report says when and with which foot. With
+    catch steps off it stands through the clip (that frame lasts one frame)
+    and falls as it tries to hold it (0.9 s after the end, measured); the
+    report says so, and without the settle it would not. The same clip
+    without the jump is held to the settle's end."""
     from hotu_drake.physical import perform
 
     clip = library_clip("squat", "udh", "none").slice(0, 15)
@@ -556,6 +604,9 @@ def test_a_fall_just_after_the_clip_ends_is_a_fall():
     root[-1, 0] += 0.5
     keys[-1, :, 0] += 0.5
     ahead = dataclasses.replace(clip, root_position=root, key_body_positions=keys)
+    stepping = perform(ahead, settle=2.0).report
+    assert not stepping["fell"] and stepping["catch_steps"], stepping
+    monkeypatch.setattr(whole_body, "CATCH_MARGIN", np.inf)
     assert not perform(ahead, settle=0.0).report["fell"]
     report = perform(ahead, settle=2.0).report
     assert report["fell"] and clip.duration < report["fell_at_s"] < clip.duration + 2.0, report["fell_at_s"]

@@ -4,8 +4,10 @@ Each library motion once (`physical.perform` on the robot's clip, `loop:
 false`; `--starts N`: from its first N frames, the table then giving how
 many of the N it stood through): whether the robot stayed up (through
 the clip and `physical.SETTLE` s after it), its travel against the clip's, the
-share of frames with a joint at its torque limit, and, for a robot that
-fell, what in the clip is past it (`Performance.report["cannot"]`). The
+share of frames with a joint at its torque limit, the steps the controller
+took of its own to catch the robot (per start; the table gives the starts
+that took any), and, for a robot that fell, what in the clip is past it
+(`Performance.report["cannot"]`). The
 library walk looped for 10 s (`whole_body_walk_<robot>`) from several
 seeds (its start drawn 0-0.05 s into the clip): how many it walked, and
 its travel against the clip's. A capture (`--input`, a BVH or C3D)
@@ -25,9 +27,8 @@ def perform_row(robot: str, motion: str, clip, starts: int = 1) -> dict:
 
     hands = "full" if has_fingers(clip) else "none"
     report = perform(clip, hands).report
-    falls = [report["fell_at_s"]] + [
-        perform(clip.slice(start, clip.num_frames), hands).report["fell_at_s"] for start in range(1, starts)
-    ]
+    reports = [report] + [perform(clip.slice(start, clip.num_frames), hands).report for start in range(1, starts)]
+    falls = [each["fell_at_s"] for each in reports]
     reference = report["reference_travel_m"]
     return {
         "robot": robot,
@@ -43,6 +44,7 @@ def perform_row(robot: str, motion: str, clip, starts: int = 1) -> dict:
         "starts": starts,
         "up_starts": sum(fall is None for fall in falls),
         "fell_at_s_by_start": [None if fall is None else round(fall, 2) for fall in falls],
+        "catch_steps_by_start": [len(each["catch_steps"]) for each in reports],
     }
 
 
@@ -71,7 +73,9 @@ def looped_walk_row(robot: str, seeds: int) -> dict:
 
 
 def markdown(rows: list[dict], robots: list[str]) -> str:
-    """The rows as a table: motions down, robots across ("up", or the fall time)."""
+    """The rows as a table: motions down, robots across ("up", or the fall
+    time; from several starts, those it stood through, and how many of them
+    took a catch step)."""
     motions = list(dict.fromkeys(row["motion"] for row in rows))
     lines = ["| motion | " + " | ".join(robots) + " |", "|---|" + "---|" * len(robots)]
     for motion in motions:
@@ -83,7 +87,8 @@ def markdown(rows: list[dict], robots: list[str]) -> str:
             elif "walked" in row:
                 cells.append(f"{row['walked']}/{row['seeds']}")
             elif row.get("starts", 1) > 1:
-                cells.append(f"{row['up_starts']}/{row['starts']}")
+                caught = sum(count > 0 for count in row.get("catch_steps_by_start", []))
+                cells.append(f"{row['up_starts']}/{row['starts']}" + (f" ({caught} caught)" if caught else ""))
             else:
                 cells.append("up" if row["up"] else f"fell {row['fell_at_s']:.1f} s")
         lines.append(f"| {motion} | " + " | ".join(cells) + " |")

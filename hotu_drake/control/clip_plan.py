@@ -189,10 +189,11 @@ class ClipPlan:
             if f"{side}_foot" in embodiment.key_bodies
         }
         self._corners = {name: sole_corners(embodiment, foot.name()) for name, foot in self._feet.items()}
-        self._anchor = {name: self._sole_anchor(self._corners[name]) for name in self._feet}
+        # Where on each sole (its foot's frame) the plan puts the pressure standing on it alone.
+        self.anchors = {name: self._sole_anchor(self._corners[name]) for name in self._feet}
         # Where the plan keeps the pressure on each sole (3, K in the foot's frame): shrunk toward its anchor.
         self._support = {
-            name: (self._anchor[name] + (1.0 - SUPPORT_SHRINK) * (corners - self._anchor[name])).T
+            name: (self.anchors[name] + (1.0 - SUPPORT_SHRINK) * (corners - self.anchors[name])).T
             for name, corners in self._corners.items()
         }
         self._plan_com(context)
@@ -303,6 +304,22 @@ class ClipPlan:
             lifted += int(np.argmax(flags[-2::-1])) if flags.any() else 0
         return lifted
 
+    def until_lifting(self, name: str, time: float) -> float:
+        """Seconds from `time` until the clip next lifts foot `name` (0 while
+        it is up; a loop's next pass counts; infinite if it never does, as in
+        a clip that has ended)."""
+        flags, frame = self.contacts[name], self._frame(time)
+        if not flags[frame]:
+            return 0.0
+        if not self.loop and time >= self.period:
+            return np.inf
+        up = ~flags[frame:]
+        if up.any():
+            return int(np.argmax(up)) / self.clip.fps
+        if self.loop and not flags.all():
+            return (len(up) + int(np.argmax(~flags[1:]))) / self.clip.fps
+        return np.inf
+
     def until_landing(self, name: str, time: float) -> float:
         """Seconds from `time` until the clip next has foot `name` down (0
         while it is down; a loop's next pass counts, an ended clip holds its
@@ -330,7 +347,7 @@ class ClipPlan:
                 feet_down = (name for name, down in self.planted(time).items() if down and name in self._feet)
                 planted.append(tuple(sorted(feet_down)))  # (a clip's hand contacts are not footsteps)
                 poses = {name: plant.EvalBodyPoseInWorld(context, foot) for name, foot in self._feet.items()}
-                anchors.append({name: pose.multiply(self._anchor[name])[:2] for name, pose in poses.items()})
+                anchors.append({name: pose.multiply(self.anchors[name])[:2] for name, pose in poses.items()})
                 down = [name for name in poses if name in planted[-1]]
                 soles = [poses[name].multiply(self._support[name])[:2].T for name in down]
                 supports.append(np.vstack(soles) if soles else None)

@@ -26,6 +26,18 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, Context, DiagramBuilder, DiscreteValues, LeafSystem
 
+from hotu_drake.control.catch_step import (
+    CATCH_LATE,
+    CATCH_MARGIN,
+    CATCH_REACH,
+    CATCH_SWING,
+    CATCH_TOUCHDOWN,
+    CATCH_WEIGHT,
+    CatchStep,
+    capture_point,
+    catch_landing,
+    outside,
+)
 from hotu_drake.control.clip_plan import GRAVITY, ClipPlan
 from hotu_drake.control.whole_body_qp import Sole, Solution, Task, WholeBodyQp, sole_corners
 from hotu_drake.embodiment import Embodiment
@@ -181,6 +193,10 @@ class WholeBodyController(LeafSystem):
         # Wall seconds in `act` and in its QP's solve, the calls, and the solves that failed (the last good one used).
         self.timings = {"act": 0.0, "qp": 0.0, "calls": 0, "failures": 0}
         self.last_action: np.ndarray | None = None
+        # A catch step under way (`_catching`), and the (time, foot) of each taken since `reset`.
+        self._catch: CatchStep | None = None
+        self.catches: list[tuple[float, str]] = []
+        self._standing_width = self._feet_apart_standing()
         self.swing_goals: dict[str, np.ndarray] = {}  # where each swing foot was last sent (world, its origin)
         # The QP's model checked against what the robot did: at each control step that follows the last by one
         # period, the CoM acceleration the last solution predicted less the one the robot had (`prediction_error`).
@@ -216,6 +232,16 @@ class WholeBodyController(LeafSystem):
             along = plant.EvalBodyPoseInWorld(scratch, sole.body).rotation().matrix()[:, 0]
             out[name] = int((np.abs(along @ axes[:, self._actuated_v]) > ROLL_AXIS).sum()) < 2
         return out
+
+    def _feet_apart_standing(self) -> float:
+        """How far apart (m) the soles' anchors are in the standing pose (0 with fewer than two soles)."""
+        plant, scratch = self._plant, self._plant.CreateDefaultContext()
+        set_robot_state(plant, scratch, self._model, self.embodiment)
+        anchors = [
+            plant.EvalBodyPoseInWorld(scratch, sole.body).multiply(self.plan.anchors[name])[:2]
+            for name, sole in self._soles.items()
+        ]
+        return float(np.linalg.norm(anchors[0] - anchors[1])) if len(anchors) == 2 else 0.0
 
     @property
     def soles(self) -> dict[str, Sole]:
@@ -264,6 +290,7 @@ class WholeBodyController(LeafSystem):
         )
         pushing = self.pushing_off(time)
         planted = self.planted(time, pushing)
+        planted, pushing = self._catching(time, planted, pushing)
         self._footing(planted)
         tasks = self.tasks(time, planted)
         held, lifting = self.contacts(planted, pushing)
@@ -333,6 +360,7 @@ class WholeBodyController(LeafSystem):
         self._shift = np.zeros(3)
         self._predicted, self._prediction_errors, self.swing_goals = None, [], {}
         self._sideways_demand = np.zeros(2)
+        self._catch, self.catches = None, []
         self.qp.reset()
 
     def _accelerations_at(self, time: float) -> np.ndarray:
@@ -397,6 +425,62 @@ class WholeBodyController(LeafSystem):
                 along = sole.corners[:, :2] @ (way / np.linalg.norm(way))
                 out[name] = along > along.max() - PUSH_OFF_EDGE
         return out
+
+    def _catching(
+        self, time: float, planted: dict[str, bool], pushing: dict[str, np.ndarray]
+    ) -> tuple[dict[str, bool], dict[str, np.ndarray]]:
+        """The soles planted and pushing off at `time` with a catch step
+        under way (its foot in the air), starting one if the robot needs it
+        (`_start_catch`); a catch ends as its foot lands (`CATCH_TOUCHDOWN`)
+        or, landed or not, at `CATCH_LATE`."""
+        if self._catch is None:
+            self._catch = self._start_catch(time, planted)
+        catch = self._catch
+        if catch is None:
+            return planted, pushing
+        share = catch.share(time)
+        sole = self._soles[catch.foot]
+        lowest = self._plant.EvalBodyPoseInWorld(self._context, sole.body).multiply(sole.corners.T)[2].min()
+        if share >= CATCH_LATE or (share >= CATCH_TOUCHDOWN and lowest < TOUCHING):
+            self._catch = None
+            return planted, pushing
+        return {**planted, catch.foot: False}, {name: edge for name, edge in pushing.items() if name != catch.foot}
+
+    def _start_catch(self, time: float, planted: dict[str, bool]) -> CatchStep | None:
+        """A catch step, if the robot stands on both feet, the clip lifts
+        neither for a swing's time (`CATCH_SWING`), and the capture point lies
+        outside the soles (`CATCH_MARGIN`): the foot farther from it steps to
+        where it will be (`catch_landing`), the nearer carries the robot."""
+        plant, context = self._plant, self._context
+        if len(self._soles) != 2 or not all(planted.get(name) for name in self._soles):
+            return None
+        if min(self.plan.until_lifting(name, time) for name in self._soles) < CATCH_SWING:
+            return None
+        com = plant.CalcCenterOfMassPositionInWorld(context)
+        capture = capture_point(com, plant.CalcCenterOfMassTranslationalVelocityInWorld(context))
+        poses = {name: plant.EvalBodyPoseInWorld(context, sole.body) for name, sole in self._soles.items()}
+        soles = {name: poses[name].multiply(sole.corners.T)[:2].T for name, sole in self._soles.items()}
+        if outside(capture, np.vstack(list(soles.values()))) <= CATCH_MARGIN:
+            return None
+        stance = min(soles, key=lambda name: outside(capture, soles[name]))
+        foot = next(name for name in soles if name != stance)
+        frequency = np.sqrt(GRAVITY / max(com[2], 0.1))
+        landing = catch_landing(
+            capture,
+            frequency,
+            soles[stance],
+            poses[stance].multiply(self.plan.anchors[stance])[:2],
+            poses[stance].rotation().matrix()[:2, 0],
+            1.0 if foot.startswith("left") else -1.0,
+            self._standing_width,
+            CATCH_REACH * self.plan.height,
+        )
+        swing = poses[foot]
+        anchor = swing.rotation().multiply(self.plan.anchors[foot])
+        origin = swing.translation()
+        goal = np.append(landing - anchor[:2], origin[2] - LANDING_DEPTH)
+        self.catches.append((time, foot))
+        return CatchStep(foot, time, CATCH_SWING, origin, goal, swing.rotation())
 
     def contacts(self, planted: dict[str, bool], pushing: dict[str, np.ndarray] | None = None) -> tuple[dict, dict]:
         """Which corners of each planted sole the QP holds, and which may lift
@@ -497,6 +581,15 @@ class WholeBodyController(LeafSystem):
                     lowest = plant.EvalBodyPoseInWorld(reference, sole.body).multiply(sole.corners.T)[2].min()
                     goal = goal - [0.0, 0.0, lowest + LANDING_DEPTH]
                 jacobian, bias, target = self._body_rows(sole.body, gains.swing_stiffness, position=True, offset=goal)
+                swing_goal = plant.EvalBodyPoseInWorld(reference, sole.body).translation() + goal
+                weight = gains.swing_weight
+                if self._catch is not None and self._catch.foot == name:
+                    at, speed, acceleration = self._catch.target(time)
+                    still = (self._catch.rotation, np.zeros(3), np.zeros(3))
+                    jacobian, bias, target = self._pose_rows(
+                        sole.body, gains.swing_stiffness, still, (at, speed, acceleration)
+                    )
+                    swing_goal, weight = self._catch.goal, gains.swing_weight * CATCH_WEIGHT
                 if self._roll_follows_leg[name]:  # its roll is the leg's: only its pitch and yaw asked
                     across = plant.EvalBodyPoseInWorld(context, sole.body).rotation().matrix()[:, 1:].T
                     jacobian, bias, target = (
@@ -504,8 +597,8 @@ class WholeBodyController(LeafSystem):
                         np.concatenate([across @ bias[:3], bias[3:]]),
                         np.concatenate([across @ target[:3], target[3:]]),
                     )
-                self.swing_goals[name] = plant.EvalBodyPoseInWorld(reference, sole.body).translation() + goal
-                tasks.append(Task(jacobian, bias, target, gains.swing_weight))
+                self.swing_goals[name] = swing_goal
+                tasks.append(Task(jacobian, bias, target, weight))
         return tasks
 
     def _footing(self, planted: dict[str, bool]) -> np.ndarray:
@@ -531,28 +624,45 @@ class WholeBodyController(LeafSystem):
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """A body's orientation rows (and, with `position`, its origin's) toward the reference's
         (its origin moved by `offset`): Jacobian, Jdot v and the desired acceleration (PD on the pose error)."""
-        plant, context, reference = self._plant, self._context, self._reference
+        plant, reference = self._plant, self._reference
+        goal = plant.EvalBodyPoseInWorld(reference, body)
+        goal_velocity = plant.EvalBodySpatialVelocityInWorld(reference, body)
+        goal_acceleration = self._goal_accelerations[int(body.index())]
+        translation = None
+        if position:
+            where = goal.translation() + (0.0 if offset is None else offset)
+            translation = (where, goal_velocity.translational(), goal_acceleration.translational())
+        rotation = (goal.rotation(), goal_velocity.rotational(), goal_acceleration.rotational())
+        return self._pose_rows(body, stiffness, rotation, translation)
+
+    def _pose_rows(
+        self, body, stiffness: float, rotation: tuple, translation: tuple | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A body's orientation rows (and, given `translation`, its origin's)
+        toward a goal: `rotation` (a `RotationMatrix`, the angular velocity
+        and acceleration), `translation` (position, velocity, acceleration;
+        world): Jacobian, Jdot v and the desired acceleration (PD on the pose
+        error plus the goal's acceleration)."""
+        plant, context = self._plant, self._context
         world, frame = plant.world_frame(), body.body_frame()
         kv = JacobianWrtVariable.kV
         jacobian = plant.CalcJacobianSpatialVelocity(context, kv, frame, np.zeros(3), world, world)
         bias = plant.CalcBiasSpatialAcceleration(context, kv, frame, np.zeros(3), world, world)
-        pose, goal = plant.EvalBodyPoseInWorld(context, body), plant.EvalBodyPoseInWorld(reference, body)
+        pose = plant.EvalBodyPoseInWorld(context, body)
         velocity = plant.EvalBodySpatialVelocityInWorld(context, body)
-        goal_velocity = plant.EvalBodySpatialVelocityInWorld(reference, body)
-        goal_acceleration = self._goal_accelerations[int(body.index())]
         damping = _damping(stiffness)
-        turn = _rotation_vector(goal.rotation() @ pose.rotation().inverse())
+        goal_rotation, goal_angular_velocity, goal_angular_acceleration = rotation
+        turn = _rotation_vector(goal_rotation @ pose.rotation().inverse())
         angular = (
-            goal_acceleration.rotational()
-            + stiffness * turn
-            + damping * (goal_velocity.rotational() - velocity.rotational())
+            goal_angular_acceleration + stiffness * turn + damping * (goal_angular_velocity - velocity.rotational())
         )
-        if not position:
+        if translation is None:
             return jacobian[:3], bias.rotational(), angular
+        goal_position, goal_velocity, goal_acceleration = translation
         linear = (
-            goal_acceleration.translational()
-            + stiffness * (goal.translation() + (0.0 if offset is None else offset) - pose.translation())
-            + damping * (goal_velocity.translational() - velocity.translational())
+            goal_acceleration
+            + stiffness * (goal_position - pose.translation())
+            + damping * (goal_velocity - velocity.translational())
         )
         return jacobian, np.concatenate([bias.rotational(), bias.translational()]), np.concatenate([angular, linear])
 
