@@ -356,8 +356,9 @@ def run_scenario(scenario: Scenario, duration: float | None = None, meshcat=None
     reference, sampled every 50 ms), `root_travel_m` (the pelvis'
     horizontal displacement over the run) and, under the whole-body
     controller, `reference_travel_m` (its clip's over the same time,
-    looping with its root motion); with `state`, the final `positions`
-    and `velocities`."""
+    looping with its root motion) and `catch_steps` (the steps it took of
+    its own to catch the robot: time, foot); with `state`, the final
+    `positions` and `velocities`."""
     sim = build_simulation(scenario, meshcat=meshcat)
     emb, plant, context = sim.embodiment, sim.plant, sim.plant_context()
     fall = sim.fall_check()
@@ -406,7 +407,9 @@ def run_scenario(scenario: Scenario, duration: float | None = None, meshcat=None
     if drawn:
         figures |= {"seed": scenario.seed, "drawn": drawn}
     if "whole_body_controller" in sim.systems:
-        figures["reference_travel_m"] = round(sim.systems["whole_body_controller"].reference_travel(end), 4)
+        controller = sim.systems["whole_body_controller"]
+        figures["reference_travel_m"] = round(controller.reference_travel(end), 4)
+        figures["catch_steps"] = [[round(at, 3), foot] for at, foot in controller.catches]
     return figures
 
 

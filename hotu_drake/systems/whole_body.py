@@ -8,7 +8,9 @@ orientation, swing feet, the hands in a clip that handles an object, the
 clip's joint posture, the planted soles' corners held still (one that
 slides braked; a sole that turns only as its leg leans, H1's, at the edge
 it stands on; a trailing foot, as it lifts, on the edge it pushes off on),
-within friction pyramids and torque limits. A robot on a wheeled base (CURI) has
+within friction pyramids and torque limits. On both feet with its capture
+point outside its soles, the robot steps of its own (`control.catch_step`):
+a pushed robot, or one ending a walk still moving. A robot on a wheeled base (CURI) has
 no balance to keep: its tasks are the body's, the hands' and the posture. It acts
 through the path a policy acts through: an action (normalised PD targets
 within the joints' limits, the velocity targets zero) for the plant's PD,
@@ -570,7 +572,14 @@ class WholeBodyController(LeafSystem):
         landing = self.plan.planted(time)
         self.swing_goals = {}
         for name, sole in self._soles.items():
-            if not planted.get(name):
+            if planted.get(name):
+                continue
+            catch = self._catch if self._catch is not None and self._catch.foot == name else None
+            if catch is not None:  # a step of the controller's own: along its swing, flat as it lifted
+                still = (catch.rotation, np.zeros(3), np.zeros(3))
+                jacobian, bias, target = self._pose_rows(sole.body, gains.swing_stiffness, still, catch.target(time))
+                swing_goal, weight = catch.goal, gains.swing_weight * CATCH_WEIGHT
+            else:
                 # Where the capture point will be as the foot lands (its error grows as exp(frequency t)),
                 # looked ahead at most `STEP_LOOK_AHEAD`; taken in as the swing goes (none at liftoff, all at
                 # touchdown): a foot yanked toward it as it lifts kicks the body it should catch.
@@ -583,22 +592,15 @@ class WholeBodyController(LeafSystem):
                 jacobian, bias, target = self._body_rows(sole.body, gains.swing_stiffness, position=True, offset=goal)
                 swing_goal = plant.EvalBodyPoseInWorld(reference, sole.body).translation() + goal
                 weight = gains.swing_weight
-                if self._catch is not None and self._catch.foot == name:
-                    at, speed, acceleration = self._catch.target(time)
-                    still = (self._catch.rotation, np.zeros(3), np.zeros(3))
-                    jacobian, bias, target = self._pose_rows(
-                        sole.body, gains.swing_stiffness, still, (at, speed, acceleration)
-                    )
-                    swing_goal, weight = self._catch.goal, gains.swing_weight * CATCH_WEIGHT
-                if self._roll_follows_leg[name]:  # its roll is the leg's: only its pitch and yaw asked
-                    across = plant.EvalBodyPoseInWorld(context, sole.body).rotation().matrix()[:, 1:].T
-                    jacobian, bias, target = (
-                        np.vstack([across @ jacobian[:3], jacobian[3:]]),
-                        np.concatenate([across @ bias[:3], bias[3:]]),
-                        np.concatenate([across @ target[:3], target[3:]]),
-                    )
-                self.swing_goals[name] = swing_goal
-                tasks.append(Task(jacobian, bias, target, weight))
+            if self._roll_follows_leg[name]:  # its roll is the leg's: only its pitch and yaw asked
+                across = plant.EvalBodyPoseInWorld(context, sole.body).rotation().matrix()[:, 1:].T
+                jacobian, bias, target = (
+                    np.vstack([across @ jacobian[:3], jacobian[3:]]),
+                    np.concatenate([across @ bias[:3], bias[3:]]),
+                    np.concatenate([across @ target[:3], target[3:]]),
+                )
+            self.swing_goals[name] = swing_goal
+            tasks.append(Task(jacobian, bias, target, weight))
         return tasks
 
     def _footing(self, planted: dict[str, bool]) -> np.ndarray:
