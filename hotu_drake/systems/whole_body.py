@@ -29,8 +29,11 @@ from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, Context, DiagramBuilder, DiscreteValues, LeafSystem
 
 from hotu_drake.control.catch_step import (
+    CATCH_FOOTING_EASING,
+    CATCH_FOOTING_TIME,
     CATCH_LATE,
     CATCH_MARGIN,
+    CATCH_MOVED,
     CATCH_REACH,
     CATCH_SWING,
     CATCH_TOUCHDOWN,
@@ -195,9 +198,11 @@ class WholeBodyController(LeafSystem):
         # Wall seconds in `act` and in its QP's solve, the calls, and the solves that failed (the last good one used).
         self.timings = {"act": 0.0, "qp": 0.0, "calls": 0, "failures": 0}
         self.last_action: np.ndarray | None = None
-        # A catch step under way (`_catching`), and the (time, foot) of each taken since `reset`.
+        # A catch step under way (`_catching`), and the (start time, foot) of each taken since `reset` (that
+        # moved its foot `CATCH_MOVED` or more: one whose foot the robot could not lift is no step).
         self._catch: CatchStep | None = None
         self.catches: list[tuple[float, str]] = []
+        self._caught_until = -np.inf  # the footing follows the feet faster until then (`_footing`)
         self._standing_width = self._feet_apart_standing()
         self.swing_goals: dict[str, np.ndarray] = {}  # where each swing foot was last sent (world, its origin)
         # The QP's model checked against what the robot did: at each control step that follows the last by one
@@ -293,7 +298,7 @@ class WholeBodyController(LeafSystem):
         pushing = self.pushing_off(time)
         planted = self.planted(time, pushing)
         planted, pushing = self._catching(time, planted, pushing)
-        self._footing(planted)
+        self._footing(planted, time)
         tasks = self.tasks(time, planted)
         held, lifting = self.contacts(planted, pushing)
         solving = perf_counter()
@@ -362,7 +367,7 @@ class WholeBodyController(LeafSystem):
         self._shift = np.zeros(3)
         self._predicted, self._prediction_errors, self.swing_goals = None, [], {}
         self._sideways_demand = np.zeros(2)
-        self._catch, self.catches = None, []
+        self._catch, self.catches, self._caught_until = None, [], -np.inf
         self.qp.reset()
 
     def _accelerations_at(self, time: float) -> np.ndarray:
@@ -443,8 +448,12 @@ class WholeBodyController(LeafSystem):
         share = catch.share(time)
         sole = self._soles[catch.foot]
         lowest = self._plant.EvalBodyPoseInWorld(self._context, sole.body).multiply(sole.corners.T)[2].min()
+        self._caught_until = time + CATCH_FOOTING_TIME
         if share >= CATCH_LATE or (share >= CATCH_TOUCHDOWN and lowest < TOUCHING):
             self._catch = None
+            landed = self._plant.EvalBodyPoseInWorld(self._context, sole.body).translation()
+            if np.linalg.norm((landed - catch.origin)[:2]) >= CATCH_MOVED:  # a step, not a foot that stayed put
+                self.catches.append((catch.start, catch.foot))
             return planted, pushing
         return {**planted, catch.foot: False}, {name: edge for name, edge in pushing.items() if name != catch.foot}
 
@@ -481,7 +490,6 @@ class WholeBodyController(LeafSystem):
         anchor = swing.rotation().multiply(self.plan.anchors[foot])
         origin = swing.translation()
         goal = np.append(landing - anchor[:2], origin[2] - LANDING_DEPTH)
-        self.catches.append((time, foot))
         return CatchStep(foot, time, CATCH_SWING, origin, goal, swing.rotation())
 
     def contacts(self, planted: dict[str, bool], pushing: dict[str, np.ndarray] | None = None) -> tuple[dict, dict]:
@@ -603,7 +611,7 @@ class WholeBodyController(LeafSystem):
             tasks.append(Task(jacobian, bias, target, weight))
         return tasks
 
-    def _footing(self, planted: dict[str, bool]) -> np.ndarray:
+    def _footing(self, planted: dict[str, bool], time: float) -> np.ndarray:
         """Where the planted feet stand against the clip's (m, horizontal; their
         mean): the clip is tracked from where the robot's feet actually
         landed, so a step placed off the clip's footprint to catch the CoM
@@ -618,7 +626,8 @@ class WholeBodyController(LeafSystem):
         ]
         if offsets:  # eased toward the new footing: a stance handed to a foot that landed elsewhere is no jump
             footing = np.append(np.mean(offsets, axis=0)[:2], 0.0)
-            self._shift += (footing - self._shift) * (1.0 - np.exp(-self.period / FOOTING_EASING))
+            easing = CATCH_FOOTING_EASING if time < self._caught_until else FOOTING_EASING
+            self._shift += (footing - self._shift) * (1.0 - np.exp(-self.period / easing))
         return self._shift
 
     def _body_rows(
