@@ -182,6 +182,32 @@ def test_the_controller_holds_a_standing_robot_through_a_push(tmp_path):
     assert np.linalg.norm((end - start)[:2]) < 0.05
 
 
+def test_a_catch_whose_foot_did_not_move_is_no_step():
+    """A catch ends as its foot touches the floor after `CATCH_TOUCHDOWN` of
+    its swing; it is counted as a step only if the foot landed
+    `CATCH_MOVED` or more from where it lifted (a foot the robot could not
+    lift, still where it was, is none). Both feet down in H1's standing
+    pose, each catch set up by hand."""
+    from hotu_drake.control.catch_step import CATCH_MOVED, CATCH_TOUCHDOWN, CatchStep
+    from hotu_drake.plant import set_robot_state
+
+    emb = embodiment.load("h1", "none")
+    controller = WholeBodyController(emb, standing_clip(emb, 2.0), 1.0 / 60.0, loop=False)
+    plant = controller._plant
+    set_robot_state(plant, controller._context, controller._model, emb)
+    foot = controller.soles["left_foot"].body
+    here = plant.EvalBodyPoseInWorld(controller._context, foot)
+    planted = {"left_foot": True, "right_foot": True}
+    for lifted_from, counted in ((here.translation(), False), (here.translation() - [2 * CATCH_MOVED, 0, 0], True)):
+        controller.catches = []
+        controller._catch = CatchStep("left_foot", 0.0, 0.3, lifted_from, here.translation(), here.rotation())
+        during, _ = controller._catching(0.3 * CATCH_TOUCHDOWN / 2, planted, {})
+        assert not during["left_foot"] and controller._catch is not None  # mid-swing: in the air, not planted
+        after, _ = controller._catching(0.3 * (CATCH_TOUCHDOWN + 0.05), planted, {})
+        assert after["left_foot"] and controller._catch is None  # touching past 60%: landed
+        assert controller.catches == ([(0.0, "left_foot")] if counted else [])
+
+
 def test_h1_squats_under_the_controller_without_falling():
     """The library squat on H1, performed: no fall, the pelvis going down
     and up with the clip's (it lags the clip's by up to 7 cm on the way down),
