@@ -163,7 +163,8 @@ def perform(
     report |= {"fell": fell_at is not None, "fell_at_s": fell_at, "frames": done, "wall_time_s": round(wall, 2)}
     report["settle_s"] = round(settled, 3)
     # The steps the controller took of its own to catch the robot (`whole_body.WholeBodyController._start_catch`):
-    # when (s, the clip's time; in the settle after it, past its end) and with which foot.
+    # when its foot lifted (s, the clip's time; in the settle after it, past its end) and which foot; a catch
+    # whose foot the robot could not move is none.
     report["catch_steps"] = [[round(at, 3), foot] for at, foot in controller.catches]
     report["com_acceleration_error_m_s2"] = None if error is None else [round(float(e), 3) for e in error]
     torques = np.array(record["torques"])
