@@ -409,7 +409,7 @@ def run_scenario(scenario: Scenario, duration: float | None = None, meshcat=None
     if "whole_body_controller" in sim.systems:
         controller = sim.systems["whole_body_controller"]
         figures["reference_travel_m"] = round(controller.reference_travel(end), 4)
-        figures["catch_steps"] = [[round(at, 3), foot] for at, foot in controller.catches]
+        figures["catch_steps"] = controller.catch_steps()
     return figures
 
 

@@ -165,7 +165,7 @@ def perform(
     # The steps the controller took of its own to catch the robot (`whole_body.WholeBodyController._start_catch`):
     # when its foot lifted (s, the clip's time; in the settle after it, past its end) and which foot; a catch
     # whose foot the robot could not move is none.
-    report["catch_steps"] = [[round(at, 3), foot] for at, foot in controller.catches]
+    report["catch_steps"] = controller.catch_steps()
     report["com_acceleration_error_m_s2"] = None if error is None else [round(float(e), 3) for e in error]
     torques = np.array(record["torques"])
     saturated = (np.abs(torques) >= SATURATED * emb.effort_limits).mean(axis=0) if len(torques) else None

@@ -3,9 +3,10 @@
 A robot on both feet whose capture point (its CoM plus its velocity over
 the pendulum's frequency: where it would have to put its centre of
 pressure to come to rest) lies outside the soles cannot stop by pushing
-on them; a person steps. `plan_catch` picks the foot (the one farther
-from the capture point; the other, nearer, carries the robot meanwhile)
-and where it lands: where the capture point will be as it lands, with
+on them; a person steps. The controller (`WholeBodyController._start_catch`)
+lifts the foot farther from the capture point (the other, nearer, carries
+the robot meanwhile); `catch_landing` says where it lands: where the
+capture point will be as it lands, with
 its centre of pressure held at the stance sole's nearest point (the
 linear inverted pendulum), kept within a reach of the stance foot and on
 its own side of it. `CatchStep` is the swing itself: a minimum-jerk path
@@ -23,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.math import RotationMatrix
 
-from hotu_drake.control.clip_plan import GRAVITY, into_support
+from hotu_drake.control.clip_plan import into_support, pendulum_frequency
 
 CATCH_MARGIN = 0.01  # m: a capture point this far outside the soles starts a catch step
 CATCH_SWING = 0.3  # s: a catch step's swing (H1 steps in 0.4-0.5 s walking; sooner is a smaller step)
@@ -48,8 +49,7 @@ CATCH_MOVED = 0.02  # m: a catch whose foot landed this near where it lifted is 
 
 def capture_point(com: np.ndarray, com_velocity: np.ndarray) -> np.ndarray:
     """The instantaneous capture point (2,) of a CoM at `com` moving at `com_velocity` (world)."""
-    frequency = np.sqrt(GRAVITY / max(float(com[2]), 0.1))
-    return com[:2] + com_velocity[:2] / frequency
+    return com[:2] + com_velocity[:2] / pendulum_frequency(com[2])
 
 
 def outside(point: np.ndarray, support: np.ndarray) -> float:

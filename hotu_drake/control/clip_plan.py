@@ -36,6 +36,11 @@ SUPPORT_SHRINK = 0.5  # the support the plan keeps the pressure in: the soles sh
 HALF_FRAME_SLACK = 1e-6  # frames: a clip time this near a half frame counts as on it
 
 
+def pendulum_frequency(height: float) -> float:
+    """The linear inverted pendulum's frequency sqrt(g / h) (1/s) for a CoM `height` m up (taken as 0.1 at least)."""
+    return float(np.sqrt(GRAVITY / max(float(height), 0.1)))
+
+
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """The z of the cross product of 2-D vectors (rows)."""
     return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]

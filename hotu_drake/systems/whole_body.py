@@ -43,7 +43,7 @@ from hotu_drake.control.catch_step import (
     catch_landing,
     outside,
 )
-from hotu_drake.control.clip_plan import GRAVITY, ClipPlan
+from hotu_drake.control.clip_plan import ClipPlan, pendulum_frequency
 from hotu_drake.control.whole_body_qp import Sole, Solution, Task, WholeBodyQp, sole_corners
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.actions import ActionScaling
@@ -239,6 +239,10 @@ class WholeBodyController(LeafSystem):
             along = plant.EvalBodyPoseInWorld(scratch, sole.body).rotation().matrix()[:, 0]
             out[name] = int((np.abs(along @ axes[:, self._actuated_v]) > ROLL_AXIS).sum()) < 2
         return out
+
+    def catch_steps(self) -> list[list]:
+        """The catch steps taken since `reset`, as a report lists them: [start time (s, rounded), foot]."""
+        return [[round(at, 3), foot] for at, foot in self.catches]
 
     def _feet_apart_standing(self) -> float:
         """How far apart (m) the soles' anchors are in the standing pose (0 with fewer than two soles)."""
@@ -447,12 +451,11 @@ class WholeBodyController(LeafSystem):
             return planted, pushing
         share = catch.share(time)
         sole = self._soles[catch.foot]
-        lowest = self._plant.EvalBodyPoseInWorld(self._context, sole.body).multiply(sole.corners.T)[2].min()
+        pose = self._plant.EvalBodyPoseInWorld(self._context, sole.body)
         self._caught_until = time + CATCH_FOOTING_TIME
-        if share >= CATCH_LATE or (share >= CATCH_TOUCHDOWN and lowest < TOUCHING):
+        if share >= CATCH_LATE or (share >= CATCH_TOUCHDOWN and pose.multiply(sole.corners.T)[2].min() < TOUCHING):
             self._catch = None
-            landed = self._plant.EvalBodyPoseInWorld(self._context, sole.body).translation()
-            if np.linalg.norm((landed - catch.origin)[:2]) >= CATCH_MOVED:  # a step, not a foot that stayed put
+            if np.linalg.norm((pose.translation() - catch.origin)[:2]) >= CATCH_MOVED:  # a step, not a foot kept put
                 self.catches.append((catch.start, catch.foot))
             return planted, pushing
         return {**planted, catch.foot: False}, {name: edge for name, edge in pushing.items() if name != catch.foot}
@@ -475,7 +478,7 @@ class WholeBodyController(LeafSystem):
             return None
         stance = min(soles, key=lambda name: outside(capture, soles[name]))
         foot = next(name for name in soles if name != stance)
-        frequency = np.sqrt(GRAVITY / max(com[2], 0.1))
+        frequency = pendulum_frequency(com[2])
         landing = catch_landing(
             capture,
             frequency,
@@ -573,7 +576,7 @@ class WholeBodyController(LeafSystem):
         target = np.append(self.plan.com_acceleration_for(time, com - shift, com_velocity), height)
         self._sideways_demand = target[:2]
         tasks = [Task(*self._com_rows, target, gains.com_weight)]
-        frequency = np.sqrt(GRAVITY / max(com_reference[2], 0.1))
+        frequency = pendulum_frequency(com_reference[2])
         planned, planned_velocity = self.plan.planned_com(time)
         capture = (com[:2] - shift[:2] - planned) + (com_velocity[:2] - planned_velocity) / frequency
         offset = shift + gains.step_adjustment * np.append(capture, 0.0)
