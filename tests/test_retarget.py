@@ -18,6 +18,7 @@ from hotu_drake.motion.udh_skeleton import udh_landmarks
 from hotu_drake.objects import BOX_SIZE
 from hotu_drake.retarget.metrics import report
 from hotu_drake.retarget.pipeline import ROBOTS, retarget_onto, to_robot, to_udh
+from hotu_drake.retarget.retargeter import RetargetOptions, dynamic_pace
 from tests.clips import udh_test_clip
 from tests.conftest import SHARED
 
@@ -74,7 +75,7 @@ def test_every_robot_stays_within_limits_and_above_the_floor(human_walk, udh_wal
         assert figures["foot_penetration_m"] <= 0.01
     # Joint velocities agree with the positions.
     assert np.allclose(
-        result.clip.joint_velocities[1:-1], np.gradient(result.clip.joint_positions, 1 / 120, axis=0)[1:-1]
+        result.clip.joint_velocities[1:-1], np.gradient(result.clip.joint_positions, 1 / result.clip.fps, axis=0)[1:-1]
     )
 
 
@@ -84,6 +85,31 @@ def test_smaller_robots_take_proportionally_shorter_strides(udh_walk):
     bruce_travel = np.linalg.norm(bruce.root_position[-1, :2] - bruce.root_position[0, :2])
     ratio = embodiment.load("bruce").standing_pelvis_height / embodiment.load("udh").standing_pelvis_height
     assert bruce_travel / udh_travel == pytest.approx(ratio, rel=0.3)
+
+
+def test_dynamic_pace_plays_a_smaller_robots_steps_faster(udh_walk):
+    """At dynamic similarity's pace BRUCE walks the same steps, each frame
+    closer in time: its stride over the UDH's times the square of its pace
+    is 1 (the UDH's Froude number kept), its path the person-paced one's
+    within 3 cm (the balance pass moves the body over the feet for the
+    faster pace's accelerations). "auto" paces BRUCE so (its legs half the
+    UDH's), not H1 (as long as the UDH's)."""
+    person = to_robot(udh_walk, "bruce", "none", RetargetOptions(pace="person")).clip
+    dynamic = to_robot(udh_walk, "bruce", "none", RetargetOptions(pace="dynamic")).clip
+    assert person.fps == udh_walk.fps and dynamic.num_frames == person.num_frames
+    pace = dynamic.fps / person.fps
+    travel = np.linalg.norm(dynamic.root_position[-1, :2] - dynamic.root_position[0, :2])
+    udh_travel = np.linalg.norm(udh_walk.root_position[-1, :2] - udh_walk.root_position[0, :2])
+    assert 1.3 < pace < 1.6
+    assert pace**2 * travel / udh_travel == pytest.approx(1.0, abs=0.05)
+    assert np.abs(dynamic.root_position[:, :2] - person.root_position[:, :2]).max() < 0.03
+    forward = dynamic.root_linear_velocity[:, 0].mean() / person.root_linear_velocity[:, 0].mean()
+    assert forward == pytest.approx(pace, rel=0.05)
+    assert to_robot(udh_walk, "bruce", "none").clip.fps == dynamic.fps  # "auto", the default
+    assert to_robot(udh_walk, "h1", "none").clip.fps == udh_walk.fps
+    assert dynamic_pace(0.25) == pytest.approx(2.0)
+    with pytest.raises(ValueError, match="auto, person, dynamic"):
+        RetargetOptions(pace="fast")
 
 
 def test_object_tracks_are_scaled_to_each_robot():
@@ -106,6 +132,20 @@ def test_object_tracks_are_scaled_to_each_robot():
         assert np.linalg.norm(track[lifted, :3] - between) < 0.3
         if robot == "bruce":  # unscaled, the box would float far from Bruce's hands
             assert np.linalg.norm(source[lifted, :3] - between) > 0.6
+
+
+def test_the_replay_plays_every_lane_on_one_clock(udh_walk):
+    """A clip at a faster pace (BRUCE's, "auto") runs ahead of the UDH's in
+    the side-by-side replay and holds its last frame, as it would play."""
+    from hotu_drake.retarget.replay import _frames_at
+
+    bruce = to_robot(udh_walk, "bruce", "none").clip
+    times = np.arange(udh_walk.num_frames) / udh_walk.fps
+    np.testing.assert_array_equal(_frames_at(udh_walk, times), np.arange(udh_walk.num_frames))
+    frames = _frames_at(bruce, times)
+    assert bruce.fps > 1.3 * udh_walk.fps and frames[-1] == bruce.num_frames - 1
+    halfway = len(times) // 2
+    assert frames[halfway] == pytest.approx(halfway * bruce.fps / udh_walk.fps, abs=1)
 
 
 def test_the_replay_draws_each_lanes_own_objects():

@@ -29,6 +29,7 @@ from hotu_drake.bench.clips import LIBRARY as LIBRARY_CLIPS
 from hotu_drake.bench.standing import machine, one_core, pin_to_one_core, standing_realtime_factor
 from hotu_drake.cli import ArgumentParser, positive_float, run_cli
 from hotu_drake.errors import InputError, check_choice, check_number
+from hotu_drake.retarget.retargeter import PACES
 from hotu_drake.scenario import DEFAULT_TIME_STEP, LIMITS, MAX_PLANT_STEPS, default_plant_config
 
 BASELINE_PLANT = (1.0 / 180.0, 1.0)  # hotu_drake 0.2's environments: 1/180 s, Drake's default near-rigid threshold
@@ -327,7 +328,7 @@ def _clips(args) -> int:
     pin_to_one_core()
     rows = []
     for name in [*args.motions, *args.input]:
-        for row in clip_rows(name, source(name), tuple(args.robots)):
+        for row in clip_rows(name, source(name), tuple(args.robots), args.pace):
             print(json.dumps(row), file=sys.stderr, flush=True)
             rows.append(row)
     if args.markdown:
@@ -342,6 +343,7 @@ def _performs(args) -> int:
     from hotu_drake.motion.library import MOTIONS
     from hotu_drake.motion.load import load_motion
     from hotu_drake.retarget.pipeline import library_clip, retarget_onto
+    from hotu_drake.retarget.retargeter import RetargetOptions
 
     for robot in args.robots:
         check_choice(robot, "--robots", embodiment.EMBODIMENT_NAMES)
@@ -349,17 +351,19 @@ def _performs(args) -> int:
         check_choice(motion, "--motions", MOTIONS)
     check_number(args.seeds, "--seeds", low=0, high=100, integer=True)
     check_number(args.starts, "--starts", low=1, high=30, integer=True)
-    captures = {Path(path).stem: retarget_onto(load_motion(path), args.robots, "none") for path in args.input}
+    options = RetargetOptions(pace=args.pace)
+    captures = {Path(path).stem: retarget_onto(load_motion(path), args.robots, "none", options) for path in args.input}
     pin_to_one_core()
     rows = []
     for robot in args.robots:
-        clips = {motion: library_clip(motion, robot, "none") for motion in args.motions}
+        clips = {motion: library_clip(motion, robot, "none", args.pace) for motion in args.motions}
         clips |= {stem: stages[robot].clip for stem, stages in captures.items()}
         for motion, clip in clips.items():
             rows.append(perform_row(robot, motion, clip, args.starts))
             print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
         if args.seeds and embodiment.load(robot, "none").floating_base:
-            rows.append(looped_walk_row(robot, args.seeds))
+            walk = None if args.pace == "auto" else library_clip("walk", robot, "none", args.pace)
+            rows.append(looped_walk_row(robot, args.seeds, walk))
             print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
     if args.markdown:
         print(performs_markdown(rows, args.robots), file=sys.stderr, flush=True)
@@ -474,6 +478,7 @@ def main(argv: list[str] | None = None) -> int:
     clips.add_argument("--motions", nargs="*", default=list(LIBRARY_CLIPS), help="library motions (issue 27's)")
     clips.add_argument("--input", nargs="*", default=[], help="motion files (BVH, C3D, .npz) to retarget too")
     clips.add_argument("--robots", nargs="+", default=list(LEGGED), help="legged embodiments (default: all of them)")
+    clips.add_argument("--pace", choices=PACES, default="auto", help="the clips' timing (`RetargetOptions.pace`)")
     clips.add_argument("--markdown", action="store_true", help="also print a Markdown table on stderr")
     teacher = sub.add_parser("teacher", help="the whole-body controller walking a robot, and one label query's cost")
     teacher.add_argument("--robot", default="h1", help="a robot with a shipped whole_body_walk_<robot> scenario")
@@ -514,6 +519,7 @@ def main(argv: list[str] | None = None) -> int:
     performs.add_argument(
         "--starts", type=int, default=1, help="perform each motion from its first N frames (the table: up of N)"
     )
+    performs.add_argument("--pace", choices=PACES, default="auto", help="the clips' timing (`RetargetOptions.pace`)")
     performs.add_argument("--markdown", action="store_true", help="also print a Markdown table on stderr")
     args = parser.parse_args(argv)
     if args.command == "performs":

@@ -11,6 +11,7 @@ from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.library.steering import VOCABULARY
 from hotu_drake.retarget.metrics import report
 from hotu_drake.retarget.pipeline import retarget_onto
+from hotu_drake.retarget.retargeter import RetargetOptions
 
 LEGGED = ("udh", "h1", "naviai", "walker", "bruce")
 # The library's motions the acceptance names: walk, squat, the box carry and the steering vocabulary.
@@ -28,10 +29,11 @@ def source(name: str) -> MotionClip:
     return generate(name)
 
 
-def clip_rows(name: str, clip: MotionClip, robots: tuple[str, ...] = LEGGED) -> list[dict]:
-    """One row per embodiment: the clip retargeted (human -> UDH -> robot,
-    no fingers; `pipeline.retarget_onto`) and its report's stance, legs, balance and torque figures."""
-    stages = retarget_onto(clip, robots, "none")
+def clip_rows(name: str, clip: MotionClip, robots: tuple[str, ...] = LEGGED, pace: str = "auto") -> list[dict]:
+    """One row per embodiment: the clip retargeted at `pace` (human -> UDH
+    -> robot, no fingers; `pipeline.retarget_onto`) and its report's stance,
+    legs, balance and torque figures."""
+    stages = retarget_onto(clip, robots, "none", RetargetOptions(pace=pace))
     rows = []
     for robot in robots:
         stage = stages[robot]

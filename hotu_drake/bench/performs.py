@@ -11,10 +11,16 @@ that took any), and, for a robot that fell, what in the clip is past it
 library walk looped for 10 s (`whole_body_walk_<robot>`) from several
 seeds (its start drawn 0-0.05 s into the clip): how many it walked, and
 its travel against the clip's. A capture (`--input`, a BVH or C3D)
-retargeted and performed once.
+retargeted and performed once. `--pace`: the clips' timing
+(`RetargetOptions.pace`; the looped walk's too).
 """
 
 from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+from hotu_drake.motion.clip import MotionClip
 
 
 def perform_row(robot: str, motion: str, clip, starts: int = 1) -> dict:
@@ -49,19 +55,26 @@ def perform_row(robot: str, motion: str, clip, starts: int = 1) -> dict:
     }
 
 
-def looped_walk_row(robot: str, seeds: int) -> dict:
-    """`whole_body_walk_<robot>` (10 s) from `seeds` seeds: the walks, their travel ratios and fall times."""
+def looped_walk_row(robot: str, seeds: int, walk: MotionClip | None = None) -> dict:
+    """`whole_body_walk_<robot>` (10 s) from `seeds` seeds: the walks, their
+    travel ratios and fall times; tracking `walk` instead of the library's
+    walk if given (the walk at another pace)."""
     from hotu_drake.diagrams import run_scenario
     from hotu_drake.scenario import load_scenario
 
     ratios, falls = [], []
-    for seed in range(seeds):
-        scenario = load_scenario(f"whole_body_walk_{robot}")
-        scenario.seed = seed
-        figures = run_scenario(scenario)
-        if figures["fell"]:
-            falls.append(seed)
-        ratios.append(round(figures["root_travel_m"] / figures["reference_travel_m"], 3))
+    with tempfile.TemporaryDirectory() as folder:
+        if walk is not None:
+            walk.save(Path(folder) / "walk.npz")
+        for seed in range(seeds):
+            scenario = load_scenario(f"whole_body_walk_{robot}")
+            scenario.seed = seed
+            if walk is not None:
+                scenario.driver.motion = str(Path(folder) / "walk.npz")
+            figures = run_scenario(scenario)
+            if figures["fell"]:
+                falls.append(seed)
+            ratios.append(round(figures["root_travel_m"] / figures["reference_travel_m"], 3))
     walked = [r for seed, r in enumerate(ratios) if seed not in falls]
     return {
         "robot": robot,

@@ -33,6 +33,7 @@ from hotu_drake.io import check_output_path, write_text_atomic
 from hotu_drake.motion.load import load_motion
 from hotu_drake.retarget.metrics import report
 from hotu_drake.retarget.pipeline import ROBOTS, has_fingers, retarget_onto
+from hotu_drake.retarget.retargeter import PACES, RetargetOptions
 from hotu_drake.rotations import signed_axis
 
 TARGETS = ("udh", *ROBOTS)
@@ -67,6 +68,14 @@ def _parser() -> ArgumentParser:
         action="store_true",
         help="also perform each robot's clip in the simulator under the whole-body controller: "
         "<clip>_<robot>_physical.npz (states, actions, torques, foot forces), and its figures in the report",
+    )
+    parser.add_argument(
+        "--pace",
+        choices=PACES,
+        default="auto",
+        help="the clips' timing: the person's, or dynamic similarity's (a robot with legs half as long "
+        "plays its clip 1.41x as fast, as a pendulum half as long swings); auto: dynamic where that is "
+        "more than 1.25x the person's (BRUCE), else the person's",
     )
     parser.add_argument("--report", help="write per-clip, per-robot figures as JSON")
     parser.add_argument("--html", help="write a Meshcat replay (source, UDH and robots side by side)")
@@ -158,7 +167,7 @@ def main(argv: list[str] | None = None) -> int:
             progress.done += len(solved) + physical
             continue
         done = functools.partial(_step_done, progress, stem)
-        results = retarget_onto(source, solved, args.hands, done=done)
+        results = retarget_onto(source, solved, args.hands, RetargetOptions(pace=args.pace), done=done)
         performed = {}
         if args.physics:
             from hotu_drake.physical import perform

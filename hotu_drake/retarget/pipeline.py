@@ -85,13 +85,15 @@ def to_robot(udh_clip: MotionClip, robot: str, hands: str = "full", options: Ret
 
 
 @lru_cache(maxsize=32)
-def library_clip(motion: str, robot: str, hands: str = "none") -> MotionClip:
+def library_clip(motion: str, robot: str, hands: str = "none", pace: str = "auto") -> MotionClip:
     """A motion of the generated library on `robot` (or the UDH): the
-    human demonstration retargeted through the UDH, cached per process
-    (treat the returned clip as read-only)."""
+    human demonstration retargeted through the UDH at `pace`
+    (`RetargetOptions.pace`), cached per process (treat the returned clip
+    as read-only)."""
     from hotu_drake.motion.library import generate
 
-    return retarget_onto(generate(motion), [robot], hands, bridge_hands="none")[robot].clip
+    options = RetargetOptions(pace=pace)
+    return retarget_onto(generate(motion), [robot], hands, options, bridge_hands="none")[robot].clip
 
 
 def retarget_onto(

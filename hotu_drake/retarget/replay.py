@@ -47,9 +47,10 @@ def _add_object(meshcat: Meshcat, path: str, name: str, pose: np.ndarray) -> Non
         meshcat.SetTransform(f"{path}/{shape.name}", RigidTransform(RollPitchYaw(*g.rpy), list(g.position)))
 
 
-def _every_frame(poses: np.ndarray, count: int, frames: int) -> np.ndarray:
-    """A track of `count` frames read at the replay's `frames` (the last pose held past its end)."""
-    return poses[np.minimum(np.arange(frames), count - 1)]
+def _frames_at(clip: MotionClip, times: np.ndarray) -> np.ndarray:
+    """The frame of `clip` at each of the replay's `times` (its last held past its end): every lane plays
+    on one clock, a clip at a faster pace (`RetargetOptions.pace`) ahead of the person's."""
+    return np.minimum(np.round(times * clip.fps).astype(int), clip.num_frames - 1)
 
 
 def _drake_shape(g):
@@ -84,11 +85,14 @@ def render_replay(clips: list[MotionClip], source: MotionClip | None = None, mes
     source_offset = offsets[0] if source is not None else None
     clip_offsets = offsets[1:] if source is not None else offsets
     fps = clips[0].fps if clips else source.fps
-    frames = clips[0].num_frames if clips else source.num_frames
     stride = max(1, int(round(fps / REPLAY_FPS)))
-    indices = range(0, frames, stride)
+    played = [*clips, *([source] if source is not None else [])]
+    duration = max((clip.num_frames - 1) / clip.fps for clip in played)
+    times = np.arange(int(np.floor(duration * fps / stride + 1e-9)) + 1) * stride / fps
 
-    points = landmarks_of(source) if source is not None else {}
+    points = {}
+    if source is not None:
+        points = {name: track[_frames_at(source, times)] for name, track in landmarks_of(source).items()}
     for name in points:
         meshcat.SetObject(f"/source/{name}", Sphere(0.025), Rgba(0.1, 0.1, 0.1, 1.0))
     # Every lane draws its own clip's object tracks (a robot's are scaled to it by the retargeting).
@@ -100,7 +104,7 @@ def render_replay(clips: list[MotionClip], source: MotionClip | None = None, mes
         for i, name in enumerate(clip.object_names):
             path = f"/objects/{name}_{lane}"
             _add_object(meshcat, path, name, clip.object_poses[0, i])
-            objects.append((path, _every_frame(clip.object_poses[:, i], clip.num_frames, frames), y))
+            objects.append((path, clip.object_poses[_frames_at(clip, times), i], y))
     layout = [(actuated_joint_order(plant, model), model) for model in models]
     meshcat.StartRecording(frames_per_second=fps / stride, set_visualizations_while_recording=False)
     recording = meshcat.get_mutable_recording()
@@ -111,25 +115,29 @@ def render_replay(clips: list[MotionClip], source: MotionClip | None = None, mes
         starts = [plant.GetJointByName(name, model).position_start() for name in order]
         lateral = [i for i, name in enumerate(order) if name == "base_y"]
         slots.append((starts, [column[name] for name in order], lateral))
-    for frame, t in enumerate(indices):
-        context.SetTime(frame * stride / fps)
+    at = [_frames_at(clip, times) for clip in clips]
+    for frame, time in enumerate(times):
+        context.SetTime(time)
         positions = plant.GetPositions(plant_context)
-        for clip, (starts, columns, lateral), y in zip(clips, slots, clip_offsets):
-            values = clip.joint_positions[t, columns]
+        for clip, k, (starts, columns, lateral), y in zip(clips, at, slots, clip_offsets):
+            values = clip.joint_positions[k[frame], columns]
             values[lateral] += y
             positions[starts] = values
         plant.SetPositions(plant_context, positions)
-        for clip, emb, (_, model), y in zip(clips, loaded, layout, clip_offsets):
+        for clip, k, emb, (_, model), y in zip(clips, at, loaded, layout, clip_offsets):
             if emb.floating_base:
                 root = plant.GetBodyByName(emb.spec.root.name, model)
+                t = k[frame]
                 pose = RigidTransform(Quaternion(*clip.root_quaternion[t]), clip.root_position[t] + [0.0, y, 0.0])
                 plant.SetFreeBodyPose(plant_context, root, pose)
         diagram.ForcedPublish(context)
         for name, trajectory in points.items():
-            recording.SetTransform(frame, f"/source/{name}", RigidTransform(trajectory[t] + [0.0, source_offset, 0.0]))
+            recording.SetTransform(
+                frame, f"/source/{name}", RigidTransform(trajectory[frame] + [0.0, source_offset, 0.0])
+            )
         for path, poses, y in objects:
             pose = RigidTransform(
-                Quaternion(*(poses[t, 3:] / np.linalg.norm(poses[t, 3:]))), poses[t, :3] + [0.0, y, 0.0]
+                Quaternion(*(poses[frame, 3:] / np.linalg.norm(poses[frame, 3:]))), poses[frame, :3] + [0.0, y, 0.0]
             )
             recording.SetTransform(frame, path, pose)
     meshcat.StopRecording()

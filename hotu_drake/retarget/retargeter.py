@@ -96,6 +96,32 @@ class RetargetOptions:
     source_smoothing: float = 0.02
     # Match limb directions relative to the embodiment's neutral pose (`neutral_calibration`).
     calibrate: bool = True
+    # Whole clip: the clip's timing. "person" keeps the source's; "dynamic" plays a legged embodiment's clip
+    # `dynamic_pace` times as fast (dynamic similarity: the source's Froude number kept, so the body swings at
+    # the pace of its own pendulum); "auto", dynamic where that pace is more than `AUTO_PACE` times the
+    # person's (or less than its inverse), else the person's. A stream keeps the person's (it is live).
+    pace: str = "auto"
+
+    def __post_init__(self) -> None:
+        if self.pace not in PACES:
+            raise ValueError(f"pace '{self.pace}': choose from {', '.join(PACES)}")
+
+
+PACES = ("auto", "person", "dynamic")
+# "auto" paces a clip dynamically beyond this factor: a person walks at 0.8-1.25 of their own preferred pace,
+# so within it the person's timing is one a body of that size walks at too. Measured (`bench performs`,
+# BENCHMARKS.md): BRUCE (1.43) stood in 44 of 64 library starts at the dynamic pace, 29 at the person's; NAVIAI
+# (1.08) and Walker (1.20) lost starts of the fast walk at the dynamic pace (4 and 1 of 4).
+AUTO_PACE = 1.25
+
+
+def dynamic_pace(ratio: float) -> float:
+    """How many times as fast an embodiment whose legs are `ratio` times the
+    source's moves under dynamic similarity: gravity sets the time scale of a
+    walking body (a pendulum's period grows as the square root of its length),
+    so a body half as tall walks with steps 1/sqrt(2) as long in time (BRUCE,
+    0.49 of the UDH's legs: 1.43x; Walker 1.20x, NAVIAI 1.08x, H1 1.01x)."""
+    return 1.0 / np.sqrt(ratio)
 
 
 @dataclass
@@ -500,6 +526,7 @@ class Retargeter:
             contacts = foot_contacts_of(source, frames_count) or detect_foot_contacts(src, fps)
         if self.options.whole_clip:
             ratio = self.scale_ratio(src)
+            fps = fps * self.pace_factor(ratio)  # the same frames, closer in time where the pace is dynamic
             q, rotations, positions = retarget_clip(self, src, src_frames, contacts, ratio, fps)
             return self._clip(q, rotations, positions, fps, source, contacts, ratio)
         stream = RetargetStream(self, fps, src)
@@ -512,6 +539,13 @@ class Retargeter:
             planted = {side: bool(flags[t]) for side, flags in contacts.items()}
             out_q[t], out_rotation[t], out_position[t] = stream.push(frame, body, planted)
         return self._clip(out_q, out_rotation, out_position, fps, source, contacts, stream.ratio)
+
+    def pace_factor(self, ratio: float) -> float:
+        """How many times as fast as the source this embodiment's whole clip
+        plays (`RetargetOptions.pace`), its legs `ratio` times the source's."""
+        factor, pace = dynamic_pace(ratio), self.options.pace
+        dynamic = pace == "dynamic" or (pace == "auto" and max(factor, 1.0 / factor) > AUTO_PACE)
+        return factor if dynamic else 1.0
 
     def scale_ratio(self, src: dict[str, np.ndarray]) -> float:
         """The body-size ratio (leg lengths, this embodiment over the source)
