@@ -268,6 +268,20 @@ def test_a_push_the_ankles_cannot_hold_is_caught_by_a_step(tmp_path, monkeypatch
     assert unstepped.systems["whole_body_controller"].catches == []
 
 
+def test_bruces_steps_land_beside_the_capture_point(monkeypatch):
+    """BRUCE (line feet: sideways, only where a foot lands balances it)
+    boxes its library clip from its first frame and stands, its swing feet
+    landing on their own side of where the capture point will be; landing
+    where the capture point's error alone sends them, it falls (1.5 s in,
+    measured)."""
+    from hotu_drake.physical import perform
+
+    clip = library_clip("boxing", "bruce", "none")
+    assert not perform(clip).report["fell"]
+    monkeypatch.setattr(whole_body, "CAPTURE_BESIDE", -np.inf)
+    assert perform(clip).report["fell"]
+
+
 def test_a_trailing_foot_pushes_off():
     """The UDH's walk lifts the trailing foot (its contact ends) as its heel
     rises over toes still on the floor: early in that swing the foot is held
