@@ -30,7 +30,7 @@ def test_a_foot_landing_inward_of_the_capture_point_is_moved_out_just_far_enough
     np.testing.assert_allclose(moved, [0.35, 0.03 * side])  # 1 cm beyond it, on its own side; not moved along
     outward = np.array([0.35, 0.12 * side])
     np.testing.assert_allclose(beside_capture(outward, capture, left, side, 0.01), outward)  # unmoved
-    # A sole's half-width lets it land that much short (the capture point inside its sole).
+    # A margin below zero lets it land that much short of the capture point.
     np.testing.assert_allclose(beside_capture(inward, capture, left, side, -0.03), [0.35, -0.01 * side])
 
 

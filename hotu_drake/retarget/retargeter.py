@@ -110,7 +110,7 @@ class RetargetOptions:
 PACES = ("auto", "person", "dynamic")
 # "auto" paces a clip dynamically beyond this factor: a person walks at 0.8-1.25 of their own preferred pace,
 # so within it the person's timing is one a body of that size walks at too. Measured (`bench performs`,
-# BENCHMARKS.md): BRUCE (1.43) stood in 44 of 64 library starts at the dynamic pace, 29 at the person's; NAVIAI
+# BENCHMARKS.md): BRUCE (1.43) stood in 43 of 64 library starts at the dynamic pace, 29 at the person's; NAVIAI
 # (1.08) and Walker (1.20) lost starts of the fast walk at the dynamic pace (4 and 1 of 4).
 AUTO_PACE = 1.25
 
