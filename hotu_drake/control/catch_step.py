@@ -25,6 +25,7 @@ import numpy as np
 from pydrake.math import RotationMatrix
 
 from hotu_drake.control.clip_plan import into_support, pendulum_frequency
+from hotu_drake.control.footsteps import predicted_capture
 
 CATCH_MARGIN = 0.01  # m: a capture point this far outside the soles starts a catch step
 CATCH_SWING = 0.3  # s: a catch step's swing (H1 steps in 0.4-0.5 s walking; sooner is a smaller step)
@@ -125,7 +126,7 @@ def catch_landing(
     ahead or behind."""
     pressure = into_support(capture, stance_support)
     away = capture - pressure
-    landing = pressure + away * np.exp(frequency * CATCH_SWING)
+    landing = predicted_capture(capture, pressure, frequency, CATCH_SWING)
     distance = np.linalg.norm(away)
     if distance > 1e-9:
         landing = landing + CATCH_BEYOND * away / distance

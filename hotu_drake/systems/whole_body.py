@@ -184,8 +184,7 @@ class WholeBodyController(LeafSystem):
         # Soles that stand on an edge as their legs lean sideways: such a foot with width (a line of contacts
         # turns about its line already). H1's: with both flat its legs cannot lean (`contacts`).
         self._rolls_on_edges = {
-            name: self._roll_follows_leg[name] and np.ptp(sole.corners[:, 1]) > MIN_SOLE_WIDTH
-            for name, sole in self._soles.items()
+            name: self._roll_follows_leg[name] and not self._line_soles[name] for name in self._soles
         }
         self.qp = WholeBodyQp(plant, self._soles, embodiment.effort_limits)
         # At 10 whatever the size, BRUCE (its CoM 0.41 m high) fell in both sidesteps and Walker (0.70 m) in
@@ -609,8 +608,8 @@ class WholeBodyController(LeafSystem):
                 goal = shift + self.plan.swing_progress(name, time) * growth * (offset - shift)
                 stance = [other for other in self._soles if other != name and planted.get(other)]
                 if len(stance) == 1 and self._line_soles[name]:
-                    capture = com[:2] + com_velocity[:2] / frequency
-                    moved = self._beside_capture(name, stance[0], growth * (offset - shift), capture, frequency, ahead)
+                    now = com[:2] + com_velocity[:2] / frequency  # the capture point itself, not its error
+                    moved = self._beside_capture(name, stance[0], growth * (offset - shift), now, frequency, ahead)
                     goal = shift + self.plan.swing_progress(name, time) * moved
                 if landing.get(name):  # the clip has it down: onto the floor, wherever the clip's sole is
                     lowest = plant.EvalBodyPoseInWorld(reference, sole.body).multiply(sole.corners.T)[2].min()
