@@ -284,6 +284,30 @@ def test_bruces_steps_land_beside_the_capture_point(monkeypatch):
     assert perform(clip).report["fell"]
 
 
+def test_bruces_plan_follows_its_line_feet(monkeypatch):
+    """BRUCE's looped walk from seed 7 stops after its first pass with a
+    foot placed off the clip's footprint; the clip moved to its line feet
+    within `LINE_FOOTING_EASING` it stands there (from ten seeds: ten up,
+    measured), eased over the 0.6 s the other robots use it falls."""
+    from hotu_drake.diagrams import build_simulation
+    from hotu_drake.scenario import load_scenario
+
+    def falls() -> bool:  # within 4 s: the stop is at 2.4-3.3 s
+        scenario = load_scenario("whole_body_walk_bruce")
+        scenario.seed = 7
+        sim = build_simulation(scenario)
+        fall, context = sim.fall_check(), sim.plant_context()
+        for step in range(1, 41):
+            sim.simulator.AdvanceTo(0.1 * step)
+            if fall(context):
+                return True
+        return False
+
+    assert not falls()
+    monkeypatch.setattr(whole_body, "LINE_FOOTING_EASING", whole_body.FOOTING_EASING)
+    assert falls()
+
+
 def test_a_trailing_foot_pushes_off():
     """The UDH's walk lifts the trailing foot (its contact ends) as its heel
     rises over toes still on the floor: early in that swing the foot is held
