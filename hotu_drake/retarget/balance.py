@@ -102,14 +102,42 @@ class ClipBalance:
         )
         return com, pressure
 
-    def support(self, poses: Pose, contacts: dict[str, np.ndarray]) -> Support:
+    @cached_property
+    def ankle_reach(self) -> float | None:
+        """How far (m) ahead of and behind the ankles the two ankles' pitch
+        torque limits can hold the robot's weight from, both feet down and
+        sharing it (2 tau / m g): NAVIAI's 13 N m ankles 0.10 m (its soles
+        reach 0.13 ahead), Walker's 0.14 (0.15); the UDH's, H1's and BRUCE's
+        reach past their soles. None: no ankle pitch joint to limit it."""
+        names = list(self.emb.joint_names)
+        joints = [f"{side}_ankle_y" for side in self.soles.feet]
+        if len(joints) != 2 or not set(joints) <= set(names):
+            return None
+        limit = min(self.emb.effort_limits[names.index(joint)] for joint in joints)
+        return float(2.0 * limit / (self.mass * GRAVITY))
+
+    def support(self, poses: Pose, contacts: dict[str, np.ndarray], ankles_hold: bool = False) -> Support:
         """The soles' contact points (T, K, 2), which of them bear weight
         (T, K): every point of a foot the clip has planted, and any point
         of a sole on the floor (within `ON_FLOOR`: a toe still down as its
-        heel rises to push off), and the smallest contact radius (m)."""
+        heel rises to push off), and the smallest contact radius (m). With
+        `ankles_hold`, on frames with both feet planted each sole reaches
+        only `ankle_reach` ahead of and behind its ankle: the support the
+        ankles can hold the body over, not only the soles'."""
+        reach = self.ankle_reach if ankles_hold else None
+        both = np.ones(len(poses.positions), bool)
+        for side in self.soles.feet:
+            flags = contacts.get(side)
+            both &= np.zeros(len(both), bool) if flags is None else np.asarray(flags, bool)
         points, down, radii = [], [], []
         for side in self.soles.feet:
             world, radius = self.soles.points_frames(poses, side)
+            if reach is not None and both.any():
+                link, local, _ = self.soles.feet[side]
+                held = local.copy()
+                held[:, 0] = np.clip(held[:, 0], -reach, reach)
+                within = poses.positions[:, link, None, :] + np.einsum("tij,kj->tki", poses.rotations[:, link], held)
+                world = np.where(both[:, None, None], within, world)
             planted = contacts.get(side)
             planted = np.zeros(len(world), bool) if planted is None else np.asarray(planted, bool)
             points.append(world[..., :2])

@@ -575,7 +575,8 @@ def balance(
 ) -> tuple[np.ndarray, dict]:
     """The balance pass: the body shifted so that the clip's centre of
     pressure, with the robot's own mass distribution, comes
-    `balance.MARGIN` inside the support of its planted soles (the ZMP
+    `balance.MARGIN` inside the support of its planted soles, as far as
+    its ankles can hold it (`ClipBalance.support`, `ankles_hold`; the ZMP
     filter's program, `balance.balancing_shift`), and the legs' program
     putting the planted feet back where they were; in up to
     `BALANCE_ROUNDS` rounds, each filtering the body the last one left
@@ -587,22 +588,23 @@ def balance(
     the last. The body moves `balance.MOST_MOVED` at most. On a clip solved
     on some of its frames (`own_rate`), the support and the centre of
     pressure are those of the clip brought back to its own rate, every
-    frame of it. Returns the root positions (solved frames) and the support
-    margins (m, per frame of the clip) before and after."""
+    frame of it. Returns the root positions (solved frames) and the soles'
+    support margins (m, per frame of the clip) before and after."""
     dynamics = solver.r.balance
     own_fps, solved = (fps, slice(None)) if own_rate is None else (own_rate.fps, own_rate.solved)
 
-    def measured(positions):
-        """The support, centre of mass and centre of pressure of the body at `positions`, at `own_fps`."""
+    def measured(positions, ankles_hold: bool = True):
+        """The support (as far as the ankles can hold, `ClipBalance.support`),
+        centre of mass and centre of pressure of the body at `positions`, at `own_fps`."""
         if own_rate is None:
             poses = dynamics.poses(q, rotations, positions)
-            return dynamics.support(poses, contacts), *dynamics.centroidal(poses, fps)
+            return dynamics.support(poses, contacts, ankles_hold), *dynamics.centroidal(poses, fps)
         q_own = own_rate.joints(q)
         poses = dynamics.poses(q_own, own_rate.rotations, own_rate.root(q_own, positions))
-        return dynamics.support(poses, own_rate.contacts), *dynamics.centroidal(poses, own_fps)
+        return dynamics.support(poses, own_rate.contacts, ankles_hold), *dynamics.centroidal(poses, own_fps)
 
     support, com, pressure = measured(positions)  # where the planted feet are, and will be put back
-    margins = {"before": support.margin(pressure)}
+    margins = {"before": measured(positions, ankles_hold=False)[0].margin(pressure)}
     ankles = solver.ankles(solver._poses(q, rotations, positions))
     # How far the centre of mass moves with the body (the feet stay, the legs lean): first from the robot's build.
     carried = float(np.clip(dynamics.carried, *CARRIED))
@@ -634,7 +636,7 @@ def balance(
         com = moved_com
         if share < before + WORTH_A_ROUND:
             break
-    margins["after"] = support.margin(pressure)
+    margins["after"] = measured(positions, ankles_hold=False)[0].margin(pressure)
     return positions, margins
 
 
