@@ -308,6 +308,22 @@ def test_bruces_plan_follows_its_line_feet(monkeypatch):
     assert falls()
 
 
+def test_the_back_foot_of_a_lunge_stands_on_its_toes(monkeypatch):
+    """The UDH's leg_stretch lunges with its back heel up and its ball down
+    (the clip's foot planted, its sole pitched 0.55 rad): held on its toes
+    (`PLANTED_TOE_PITCH`) the UDH stands through the clip from its first
+    frame, without a catch step (from four starts: four up, measured);
+    held flat it falls (three of four)."""
+    from hotu_drake.physical import perform
+
+    clip = library_clip("leg_stretch", "udh", "none")
+    report = perform(clip).report
+    assert not report["fell"], report["fell_at_s"]
+    assert not report["catch_steps"]
+    monkeypatch.setattr(whole_body, "PLANTED_TOE_PITCH", np.inf)
+    assert perform(clip).report["fell"]
+
+
 def test_a_trailing_foot_pushes_off():
     """The UDH's walk lifts the trailing foot (its contact ends) as its heel
     rises over toes still on the floor: early in that swing the foot is held

@@ -100,6 +100,12 @@ LANDING_DEPTH = 0.005  # m: a foot the clip has down that is not yet down is dra
 # switched its support from foot to foot within a frame and the trailing foot lifted flat: no push-off.
 # Over the first `TOE_SWING` of the swing (its share of the clip's frames up).
 TOE_DOWN, TOE_BAND, TOE_PITCH, TOE_SWING = 0.005, 0.005, 0.01, 0.5
+# m: a foot the clip has down stands on its toes (held on that edge, as pushing off) where the clip has its sole
+# pitched over an edge on the floor with its other corners this much higher: the back foot of a lunge, its
+# heel up and its ball down (leg_stretch). Held flat there, the UDH fell in three starts of four (its ankles
+# asked 3.1x their limit); on its toes it stands in four (the other robots' counts unchanged). At 2-4 cm a
+# capture's rolling feet were held on their toes too (the UDH's Qualisys walk 0/4, 1/4 before; 2/4 at 6 cm).
+PLANTED_TOE_PITCH = 0.06
 # A foot the clip lifts flat (H1's: its leg cannot reach the floor at the person's push-off) pushes off
 # all the same for `PUSH_OFF_TIME` (s) after the clip lifts it (a 30 fps clip's first frame up) while the
 # other foot is down, if it is going at least `PUSH_OFF_STEP` (m) to its next footstep: on its edge toward it
@@ -421,7 +427,9 @@ class WholeBodyController(LeafSystem):
 
     def pushing_off(self, time: float) -> dict[str, np.ndarray]:
         """The feet pushing off at `time` (the reference set to it), each with
-        the corners it pushes off on ((K,) bools). A foot the clip has lifted,
+        the corners it pushes off on ((K,) bools). A foot the clip has down
+        with its sole pitched over an edge on the floor (`PLANTED_TOE_PITCH`):
+        that edge, as the back foot of a lunge stands. A foot the clip has lifted,
         in the first half of its swing (`TOE_SWING`), whose sole the clip
         still has on the floor pitched over an edge: that edge (`TOE_DOWN`,
         `TOE_PITCH`, `TOE_BAND`). Else, just lifted (`PUSH_OFF_TIME`), with
@@ -436,12 +444,14 @@ class WholeBodyController(LeafSystem):
         clip_planted = self.plan.planted(time)
         for name, down in clip_planted.items():
             sole = self._soles.get(name)
-            if down or sole is None or self.plan.swing_progress(name, time) >= TOE_SWING:
+            if sole is None or (not down and self.plan.swing_progress(name, time) >= TOE_SWING):
                 continue
             pose = plant.EvalBodyPoseInWorld(reference, sole.body)
             heights = pose.multiply(sole.corners.T)[2]
-            if heights.min() < TOE_DOWN and np.ptp(heights) > TOE_PITCH:
+            if heights.min() < TOE_DOWN and np.ptp(heights) > (PLANTED_TOE_PITCH if down else TOE_PITCH):
                 out[name] = heights < heights.min() + TOE_BAND
+                continue
+            if down:
                 continue
             other_down = any(clip_planted.get(other) for other in self._soles if other != name)
             if not other_down or self.plan.since_lifting(name, time) >= PUSH_OFF_TIME:
