@@ -25,7 +25,7 @@ import numpy as np
 from pydrake.math import RotationMatrix
 
 from hotu_drake.control.clip_plan import into_support, pendulum_frequency
-from hotu_drake.control.footsteps import predicted_capture
+from hotu_drake.control.footsteps import heading_axes, predicted_capture
 
 CATCH_MARGIN = 0.01  # m: a capture point this far outside the soles starts a catch step
 CATCH_SWING = 0.3  # s: a catch step's swing (H1 steps in 0.4-0.5 s walking; sooner is a smaller step)
@@ -130,8 +130,7 @@ def catch_landing(
     distance = np.linalg.norm(away)
     if distance > 1e-9:
         landing = landing + CATCH_BEYOND * away / distance
-    forward = stance_heading / np.linalg.norm(stance_heading)
-    left = np.array([-forward[1], forward[0]])
+    forward, left = heading_axes(stance_heading)
     offset = landing - stance_anchor
     ahead = float(np.clip(offset @ forward, -reach, reach))
     across = side * float(np.clip(side * (offset @ left), *(share * standing_width for share in CATCH_WIDTH)))

@@ -18,6 +18,18 @@ from __future__ import annotations
 import numpy as np
 
 
+def heading_axes(heading: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A sole's forward (its length's direction `heading` (2,), made a unit
+    vector) and its left (2,), on the floor."""
+    forward = heading / np.linalg.norm(heading)
+    return forward, np.array([-forward[1], forward[0]])
+
+
+def side_of(foot: str) -> float:
+    """Which side of the body foot `foot` is on: +1 a left one, -1 a right one."""
+    return 1.0 if foot.startswith("left") else -1.0
+
+
 def predicted_capture(capture: np.ndarray, pressure: np.ndarray, frequency: float, seconds: float) -> np.ndarray:
     """Where a capture point at `capture` (2,) will be in `seconds`, the
     pressure held at `pressure` (2,), for a pendulum of `frequency` (1/s)."""

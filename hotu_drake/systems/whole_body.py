@@ -44,7 +44,7 @@ from hotu_drake.control.catch_step import (
     outside,
 )
 from hotu_drake.control.clip_plan import ClipPlan, pendulum_frequency
-from hotu_drake.control.footsteps import beside_capture, predicted_capture
+from hotu_drake.control.footsteps import beside_capture, heading_axes, predicted_capture, side_of
 from hotu_drake.control.whole_body_qp import Sole, Solution, Task, WholeBodyQp, sole_corners
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.actions import ActionScaling
@@ -512,7 +512,7 @@ class WholeBodyController(LeafSystem):
             soles[stance],
             poses[stance].multiply(self.plan.anchors[stance])[:2],
             poses[stance].rotation().matrix()[:2, 0],
-            1.0 if foot.startswith("left") else -1.0,
+            side_of(foot),
             self._standing_width,
             CATCH_REACH * self.plan.height,
         )
@@ -656,13 +656,11 @@ class WholeBodyController(LeafSystem):
         `CAPTURE_BESIDE`."""
         plant = self._plant
         pose = plant.EvalBodyPoseInWorld(self._context, self._soles[stance].body)
-        heading = pose.rotation().matrix()[:2, 0]
-        left = np.array([-heading[1], heading[0]]) / np.linalg.norm(heading)
+        _, left = heading_axes(pose.rotation().matrix()[:2, 0])
         predicted = predicted_capture(capture, pose.multiply(self.plan.anchors[stance])[:2], frequency, ahead)
         footstep = plant.EvalBodyPoseInWorld(self._reference, self._soles[name].body).multiply(self.plan.anchors[name])
         landing = footstep[:2] + self._shift[:2] + adjustment[:2]
-        side = 1.0 if name.startswith("left") else -1.0
-        moved = beside_capture(landing, predicted, left, side, CAPTURE_BESIDE)
+        moved = beside_capture(landing, predicted, left, side_of(name), CAPTURE_BESIDE)
         return adjustment + np.append(moved - landing, 0.0)
 
     def _footing(self, planted: dict[str, bool], time: float) -> np.ndarray:
