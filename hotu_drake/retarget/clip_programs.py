@@ -593,18 +593,25 @@ def balance(
     dynamics = solver.r.balance
     own_fps, solved = (fps, slice(None)) if own_rate is None else (own_rate.fps, own_rate.solved)
 
-    def measured(positions, ankles_hold: bool = True):
+    def posed(positions):
+        """The body's poses at `positions` and its feet's contacts, at `own_fps`."""
+        if own_rate is None:
+            return dynamics.poses(q, rotations, positions), contacts
+        q_own = own_rate.joints(q)
+        return dynamics.poses(q_own, own_rate.rotations, own_rate.root(q_own, positions)), own_rate.contacts
+
+    def measured(positions):
         """The support (as far as the ankles can hold, `ClipBalance.support`),
         centre of mass and centre of pressure of the body at `positions`, at `own_fps`."""
-        if own_rate is None:
-            poses = dynamics.poses(q, rotations, positions)
-            return dynamics.support(poses, contacts, ankles_hold), *dynamics.centroidal(poses, fps)
-        q_own = own_rate.joints(q)
-        poses = dynamics.poses(q_own, own_rate.rotations, own_rate.root(q_own, positions))
-        return dynamics.support(poses, own_rate.contacts, ankles_hold), *dynamics.centroidal(poses, own_fps)
+        poses, planted = posed(positions)
+        return dynamics.support(poses, planted, ankles_hold=True), *dynamics.centroidal(poses, own_fps)
+
+    def soles_margin(positions, pressure):
+        """How far `pressure` lies inside the planted soles themselves (what the report measures)."""
+        return dynamics.support(*posed(positions)).margin(pressure)
 
     support, com, pressure = measured(positions)  # where the planted feet are, and will be put back
-    margins = {"before": measured(positions, ankles_hold=False)[0].margin(pressure)}
+    margins = {"before": soles_margin(positions, pressure)}
     ankles = solver.ankles(solver._poses(q, rotations, positions))
     # How far the centre of mass moves with the body (the feet stay, the legs lean): first from the robot's build.
     carried = float(np.clip(dynamics.carried, *CARRIED))
@@ -636,7 +643,7 @@ def balance(
         com = moved_com
         if share < before + WORTH_A_ROUND:
             break
-    margins["after"] = measured(positions, ankles_hold=False)[0].margin(pressure)
+    margins["after"] = soles_margin(positions, pressure)
     return positions, margins
 
 
