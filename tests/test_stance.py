@@ -83,6 +83,27 @@ def test_library_walk_on_each_robot_keeps_its_stance_and_legs_apart(udh_walk, ro
     assert LegContacts(emb).depths(clip).max() <= 0.005
 
 
+def test_the_balance_pass_keeps_a_swinging_foot_at_its_width(monkeypatch):
+    """Nothing anchors a swinging foot as the pass sways the pelvis over the
+    planted one: its sideways target, weighted over while it swings
+    (`PASS_SWING_SIDEWAYS_FACTOR`), keeps the legs' directions from drawing
+    it in as it passes the other (BRUCE's library walk)."""
+    from hotu_drake.retarget import clip_programs
+    from hotu_drake.retarget.pipeline import retarget_onto
+
+    bruce = embodiment.load("bruce", "none")
+
+    def least() -> float:
+        options = RetargetOptions(pace="auto")
+        clip = retarget_onto(generate("walk"), ["bruce"], "none", options, bridge_hands="none")["bruce"].clip
+        return _stance(bruce, clip)["least"]
+
+    held = least()
+    monkeypatch.setattr(clip_programs, "PASS_SWING_SIDEWAYS_FACTOR", 1.0)
+    drawn = least()
+    assert held >= 0.998 and drawn < held - 0.002, (held, drawn)
+
+
 @pytest.mark.parametrize("robot", ["h1", "naviai", "walker", "bruce"])
 def test_a_planted_foot_is_flat_on_the_floor(udh_walk, robot):
     """The library walk's planted soles lie flat (a median within 2 degrees):

@@ -86,6 +86,10 @@ SWING_FADE = 0.05
 # this many times over, so the feet keep their width as the pelvis sways: at 1 the legs' directions carried
 # BRUCE's swinging foot along (its walk's stance 0.985, least 0.955; 1.005 and 0.991 at 3).
 PASS_SIDEWAYS_FACTOR = 3.0
+# And a swinging foot's this many times over again: nothing anchors it, so the legs' directions drew BRUCE's
+# swinging ankle inward as it passed the other (its walk's least stance 0.996 at 1, 0.999 at 3 or
+# more; no foot skates more for it: a planted foot's width is its anchor's).
+PASS_SWING_SIDEWAYS_FACTOR = 3.0
 # s (a Gaussian's sigma) over which the root's height offsets that put the planted soles on the floor are averaged.
 HEIGHT_SMOOTHING = 0.02
 
@@ -628,7 +632,7 @@ def balance(
         if not np.any(np.abs(shift) > 1e-4):
             break
         last = (positions.copy(), q.copy(), support, pressure, share)
-        staying = feet_stay(solver, fixed, (total + shift)[solved])
+        staying = feet_stay(solver, fixed, (total + shift)[solved], contacts)
         on_solved = np.c_[shift[solved], np.zeros(len(q))]
         positions = solver.move_body(q, rotations, positions, contacts, staying, on_solved, ankles, fps)
         support, moved_com, pressure = measured(positions)
@@ -647,19 +651,23 @@ def balance(
     return positions, margins
 
 
-def feet_stay(solver: ClipSolver, fixed: dict, shift: np.ndarray) -> dict:
+def feet_stay(solver: ClipSolver, fixed: dict, shift: np.ndarray, contacts: dict) -> dict:
     """The source targets with each leg point's sideways offset from its hip
     less the body's sideways shift (T, 2): the pelvis sways over the feet,
     and a swinging foot keeps its path across the floor (as the library's
     planned walks do), rather than being carried along and closing the
-    stance; kept within the stance's bounds (clear of the other leg)."""
+    stance; kept within the stance's bounds (clear of the other leg), and
+    weighted `PASS_SWING_SIDEWAYS_FACTOR` times over while the foot swings
+    (`contacts`: per side, planted on each frame)."""
     out = dict(fixed)
     for key, target in fixed.items():
         if isinstance(key, tuple) and key[0] == "side":
             stance = solver.r.stance_of(key)
             left = target[:, :3]
             offset = np.clip(target[:, 3] - np.einsum("ti,ti->t", left[:, :2], shift), stance.low, stance.high)
-            out[key] = np.column_stack((left, offset))
+            planted = contacts.get(key[1].split("_")[0])
+            factor = np.ones(len(offset)) if planted is None else np.where(planted, 1.0, PASS_SWING_SIDEWAYS_FACTOR)
+            out[key] = np.column_stack((left, offset, factor))
     return out
 
 

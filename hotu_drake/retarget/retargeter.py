@@ -56,10 +56,11 @@ LOCK_TOLERANCE = 0.002  # m: a planted ankle this close to its anchor is left al
 LEVEL_TOLERANCE = 0.01  # rad: and a planted sole this close to level
 WRIST_POINTING_WEIGHT = 3.0  # the wrist-to-hand direction's weight beside the hand frame's (1)
 # A foot's sideways offset from its own hip (m), beside the thigh's direction (1): the robot keeps its
-# own stance where its hips are wider apart (for its leg length) than the source's. Heavier weights widen
-# CMU 01_01 on H1 from 0.789 of the UDH's median stance to 0.802 (25) or 0.805 (30), but let the feet
-# slide 10-28% more on the captures, and a clip solved at 60 fps strays further from its every-frame solve.
-SIDEWAYS_WEIGHT = 10.0
+# own stance where its hips are wider apart (for its leg length) than the source's. At 20 (10 before) the
+# UDH's planted feet keep nearer their targets on CMU 01_01 (its median stance 1.574 -> 1.553 of its width,
+# H1's 1.250 then 0.805 of it) at 5-15% more foot skate on the captures; heavier weights let the feet slide
+# more still, and a clip solved at 60 fps strays further from its every-frame solve.
+SIDEWAYS_WEIGHT = 20.0
 # A foot's roll held at level, beside its toe's direction (1): a swing foot rolled to point its toe hit
 # the other leg (Walker's library walk: 3 cm into the other shank).
 LEVEL_WEIGHT = 0.5

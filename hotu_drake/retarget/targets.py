@@ -139,7 +139,8 @@ class Sideways(Segment):
     """How far landmark `end` lies to the body's left of landmark `start`
     should be the source's, scaled: a foot's offset from its own hip, so a
     robot stands at its own width. Its target is the body's left axis and
-    the offset along it (4,), or (T, 4) over frames."""
+    the offset along it (4,), or (T, 4) over frames, or (T, 5) with a
+    factor on its weight per frame."""
 
     def rows(self, marks: Landmarks, pose: Pose, joints: list[int], target: np.ndarray):
         span, jacobian = self.span(marks, pose, joints)
@@ -150,7 +151,8 @@ class Sideways(Segment):
         span, jacobian = self.span_frames(marks, poses, joints)
         left, offset = targets[:, :3], targets[:, 3]
         error = (offset - np.einsum("ti,ti->t", left, span))[:, None]
-        return np.einsum("ti,tik->tk", left, jacobian)[:, None, :], error, np.full(len(error), self.weight)
+        weight = self.weight * (targets[:, 4] if targets.shape[1] > 4 else np.ones(len(error)))
+        return np.einsum("ti,tik->tk", left, jacobian)[:, None, :], error, weight
 
 
 def sideways_offsets(points: dict[str, np.ndarray], end: str = "ankle") -> dict[str, np.ndarray]:
