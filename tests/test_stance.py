@@ -15,7 +15,7 @@ from hotu_drake.retarget import retargeter as retargeting
 from hotu_drake.retarget.metrics import report
 from hotu_drake.retarget.pipeline import to_robot, to_udh
 from hotu_drake.retarget.retargeter import Retargeter, RetargetOptions
-from hotu_drake.retarget.stance import LegContacts, leg_clearance, stance, standing_width
+from hotu_drake.retarget.stance import LegContacts, leg_clearance, sideways, stance, standing_width
 
 LEGGED = ("udh", "h1", "naviai", "walker", "bruce")
 
@@ -92,11 +92,12 @@ def test_the_balance_pass_keeps_a_swinging_foot_at_its_width(monkeypatch):
     from hotu_drake.retarget.pipeline import retarget_onto
 
     bruce = embodiment.load("bruce", "none")
+    width = standing_width(bruce)
 
     def least() -> float:
         options = RetargetOptions(pace="auto")
         clip = retarget_onto(generate("walk"), ["bruce"], "none", options, bridge_hands="none")["bruce"].clip
-        return _stance(bruce, clip)["least"]
+        return float(sideways(points_on_clip(bruce, clip, landmark_placements(bruce.spec))).min() / width)
 
     held = least()
     monkeypatch.setattr(clip_programs, "PASS_SWING_SIDEWAYS_FACTOR", 1.0)
