@@ -3,6 +3,7 @@
 import subprocess
 import sys
 
+import numpy as np
 from pydrake.geometry import StartMeshcat
 
 from hotu_drake import embodiment
@@ -98,3 +99,25 @@ def test_gallery_renders_six_robots_in_a_browser(tmp_path):
     edges = np.flatnonzero(np.diff(columns.astype(int)) == 1)
     groups = len(edges) + int(columns[0])
     assert 6 <= groups <= 12  # a robot may split where its arms leave the body
+
+
+def test_a_walk_replay_looks_along_the_whole_path():
+    """A replay of a robot that walked 3.6 m along +x looks from the side at
+    the middle of its path (Meshcat's own camera, at the origin, lost it
+    after a few steps); one that stayed put keeps Meshcat's camera."""
+    from hotu_drake.commands.demo import frame_travel
+
+    class Camera:
+        def __init__(self):
+            self.poses = []
+
+        def SetCameraPose(self, position, target):
+            self.poses.append((np.asarray(position), np.asarray(target)))
+
+    walked, stood = Camera(), Camera()
+    frame_travel(walked, 3.6)
+    frame_travel(stood, 0.1)
+    ((position, target),) = walked.poses
+    assert np.allclose(target[:2], [1.8, 0.0]) and position[0] == target[0]
+    assert np.linalg.norm(position[:2] - target[:2]) >= 3.0  # far enough back to see both ends
+    assert not stood.poses

@@ -18,6 +18,8 @@ performed in the simulator), writing `DIR/whole_body_walk_<robot>.html`.
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from hotu_drake import embodiment
 from hotu_drake.cli import ArgumentParser, run_cli
 from hotu_drake.errors import InputError
@@ -106,10 +108,22 @@ def write_scenario_replays(out: Path, prefix: str, what: str) -> list[Path]:
     for name in sorted(n for n in shipped_scenarios() if n.startswith(prefix)):
         meshcat.Delete()
         figures = run(load_scenario(name), meshcat=meshcat)
+        frame_travel(meshcat, figures["root_travel_m"])
         written.append(write_text_atomic(out / f"{name}.html", meshcat.StaticHtml()))
         outcome = "fell" if figures["fell"] else "stayed up"
         print(f"wrote {written[-1]}: {what} ({name}), which {outcome}")
     return written
+
+
+def frame_travel(meshcat, travel: float) -> None:
+    """Look from the side at a robot that walked `travel` metres along +x
+    (the library's walks go that way), so the replay shows it all along its
+    path rather than leaving the view; a robot that stayed put keeps
+    Meshcat's own camera."""
+    if travel < 0.5:
+        return
+    middle = travel / 2.0
+    meshcat.SetCameraPose(np.array([middle, -max(3.0, travel), 1.6]), np.array([middle, 0.0, 0.6]))
 
 
 if __name__ == "__main__":
