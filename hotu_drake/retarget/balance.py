@@ -125,10 +125,12 @@ class ClipBalance:
         only `ankle_reach` ahead of and behind its ankle: the support the
         ankles can hold the body over, not only the soles'."""
         reach = self.ankle_reach if ankles_hold else None
-        both = np.ones(len(poses.positions), bool)
-        for side in self.soles.feet:
-            flags = contacts.get(side)
-            both &= np.zeros(len(both), bool) if flags is None else np.asarray(flags, bool)
+        frames = len(poses.positions)
+        planted = {
+            side: np.zeros(frames, bool) if contacts.get(side) is None else np.asarray(contacts[side], bool)
+            for side in self.soles.feet
+        }
+        both = np.logical_and.reduce(list(planted.values()))
         points, down, radii = [], [], []
         for side in self.soles.feet:
             world, radius = self.soles.points_frames(poses, side)
@@ -138,10 +140,8 @@ class ClipBalance:
                 held[:, 0] = np.clip(held[:, 0], -reach, reach)
                 within = poses.positions[:, link, None, :] + np.einsum("tij,kj->tki", poses.rotations[:, link], held)
                 world = np.where(both[:, None, None], within, world)
-            planted = contacts.get(side)
-            planted = np.zeros(len(world), bool) if planted is None else np.asarray(planted, bool)
             points.append(world[..., :2])
-            down.append(planted[:, None] | (world[..., 2] - radius < ON_FLOOR))
+            down.append(planted[side][:, None] | (world[..., 2] - radius < ON_FLOOR))
             radii.append(radius)
         return Support(np.concatenate(points, axis=1), np.concatenate(down, axis=1), float(np.concatenate(radii).min()))
 

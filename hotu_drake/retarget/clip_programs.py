@@ -605,17 +605,19 @@ def balance(
         return dynamics.poses(q_own, own_rate.rotations, own_rate.root(q_own, positions)), own_rate.contacts
 
     def measured(positions):
-        """The support (as far as the ankles can hold, `ClipBalance.support`),
-        centre of mass and centre of pressure of the body at `positions`, at `own_fps`."""
-        poses, planted = posed(positions)
-        return dynamics.support(poses, planted, ankles_hold=True), *dynamics.centroidal(poses, own_fps)
+        """The body's poses and contacts at `positions` (`posed`), its support
+        (as far as the ankles can hold, `ClipBalance.support`), centre of
+        mass and centre of pressure, at `own_fps`."""
+        seen = posed(positions)
+        return seen, dynamics.support(*seen, ankles_hold=True), *dynamics.centroidal(seen[0], own_fps)
 
-    def soles_margin(positions, pressure):
+    def soles_margin(seen, pressure):
         """How far `pressure` lies inside the planted soles themselves (what the report measures)."""
-        return dynamics.support(*posed(positions)).margin(pressure)
+        poses, planted = seen
+        return dynamics.support_margin(poses, pressure, planted)
 
-    support, com, pressure = measured(positions)  # where the planted feet are, and will be put back
-    margins = {"before": soles_margin(positions, pressure)}
+    seen, support, com, pressure = measured(positions)  # where the planted feet are, and will be put back
+    margins = {"before": soles_margin(seen, pressure)}
     ankles = solver.ankles(solver._poses(q, rotations, positions))
     # How far the centre of mass moves with the body (the feet stay, the legs lean): first from the robot's build.
     carried = float(np.clip(dynamics.carried, *CARRIED))
@@ -631,14 +633,14 @@ def balance(
         shift = np.clip(total + shift / carried, -MOST_MOVED, MOST_MOVED) - total
         if not np.any(np.abs(shift) > 1e-4):
             break
-        last = (positions.copy(), q.copy(), support, pressure, share)
+        last = (positions.copy(), q.copy(), seen, support, pressure, share)
         staying = feet_stay(solver, fixed, (total + shift)[solved], contacts)
         on_solved = np.c_[shift[solved], np.zeros(len(q))]
         positions = solver.move_body(q, rotations, positions, contacts, staying, on_solved, ankles, fps)
-        support, moved_com, pressure = measured(positions)
+        seen, support, moved_com, pressure = measured(positions)
         share, before = inside_share(support.margin(pressure)), -1.0 if last[-1] is None else last[-1]
         if share is None or share < before:  # the legs did not follow the filter: the round undone
-            positions, q[:], support, pressure, share = last
+            positions, q[:], seen, support, pressure, share = last
             break
         total += shift
         moved = np.sum(shift * shift)
@@ -647,7 +649,7 @@ def balance(
         com = moved_com
         if share < before + WORTH_A_ROUND:
             break
-    margins["after"] = soles_margin(positions, pressure)
+    margins["after"] = soles_margin(seen, pressure)
     return positions, margins
 
 
