@@ -51,6 +51,7 @@ from pydrake.systems.primitives import ConstantVectorSource, Multiplexer, Shared
 from pydrake.visualization import ApplyVisualizationConfig
 
 from hotu_drake import embodiment as embodiments
+from hotu_drake.control.clip_plan import lead_in_for
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.actions import standing_action
 from hotu_drake.errors import InputError
@@ -225,7 +226,7 @@ def AddScenario(
     A scenario that varies (`vary`) is built as the member its `seed` draws."""
     scenario, _ = scenario.drawn()
     emb = embodiment or embodiments.load(scenario.embodiment, scenario.hands)
-    clip = _reference_clip(scenario, emb)
+    clip = _led_in(scenario, emb, _reference_clip(scenario, emb))
     fixed = scenario.fixed_base and emb.floating_base
     before = {system.get_name() for system in builder.GetSystems()}
     plant, scene_graph = AddMultibodyPlant(scenario.plant_config, builder)
@@ -569,6 +570,15 @@ def _reference_clip(scenario: Scenario, emb: Embodiment) -> MotionClip | None:
             "initial.reference_time",
         )
     return clip
+
+
+def _led_in(scenario: Scenario, emb: Embodiment, clip: MotionClip | None) -> MotionClip | None:
+    """The clip a `!WholeBodyTracking` run performs: one that does not loop,
+    started from its first frame, held there first (`WholeBodyTracking.lead_in`)."""
+    driver = scenario.driver
+    if clip is None or not isinstance(driver, WholeBodyTracking) or driver.loop or scenario.initial.reference_time:
+        return clip
+    return clip.held_first(driver.lead_in if driver.lead_in >= 0.0 else lead_in_for(clip, emb))
 
 
 def _reference_source(scenario: Scenario, emb: Embodiment, clip: MotionClip, loop: bool) -> ReferenceMotionSource:

@@ -60,14 +60,22 @@ class Performance:
 
 
 def perform(
-    clip: MotionClip, hands: str = "none", control_rate: float = 60.0, loop: bool = False, settle: float = SETTLE
+    clip: MotionClip,
+    hands: str = "none",
+    control_rate: float = 60.0,
+    loop: bool = False,
+    settle: float = SETTLE,
+    lead_in: float = -1.0,
 ) -> Performance:
     """Perform `clip` (of any embodiment, CURI on its wheeled base; starting on its first frame)
     under the whole-body controller at `control_rate` (the plant's step too),
     over the clip's duration (`loop`: tracked as a loop, its plan looking
     ahead into the next pass), then, a clip that ends, `settle` s more with
     its last frame held: a robot that falls just after the clip's end did
-    not perform it (the recorded clip is the performed frames alone)."""
+    not perform it (the recorded clip is the performed frames alone). A clip
+    that does not loop is first held at its first frame `lead_in` s
+    (`WholeBodyTracking.lead_in`; negative: as the robot needs); times in the
+    report count from the clip's start, after it."""
     from hotu_drake.diagrams import build_simulation
     from hotu_drake.scenario import InitialCondition, Scenario, WholeBodyTracking
 
@@ -76,7 +84,7 @@ def perform(
         scenario = Scenario(
             embodiment=clip.embodiment,
             hands=hands,
-            driver=WholeBodyTracking(motion=str(path), loop=loop),
+            driver=WholeBodyTracking(motion=str(path), loop=loop, lead_in=lead_in),
             initial=InitialCondition(reference_time=0.0),
             control_rate=control_rate,
         )
@@ -95,13 +103,16 @@ def perform(
     soles = controller.soles
     joints = [plant.GetJointByName(name, model) for name in emb.joint_names]
     frames = clip.num_frames
+    held = controller.plan.clip.num_frames - frames  # the lead-in's frames, before the clip's
     record = {
         name: [] for name in ("q", "root_p", "root_q", "keys", "actions", "torques", "forces", "pressure", "corners")
     }
     sole_bodies = [plant.GetBodyByName(sole.body.name(), model) for sole in soles.values()]
     fell_at = None
-    for frame in range(frames):
-        sim.simulator.AdvanceTo(frame / clip.fps)
+    for frame in range(-held, frames):
+        sim.simulator.AdvanceTo((held + frame) / clip.fps)
+        if frame < 0:  # the lead-in: standing, not yet the clip (a fall in it is one at its first frame)
+            continue
         record["q"].append([plant.GetPositions(context)[joint.position_start()] for joint in joints])
         pose = plant.EvalBodyPoseInWorld(context, root)
         record["root_p"].append(pose.translation())
@@ -131,7 +142,7 @@ def perform(
     if fell_at is None and not loop:
         for step in range(1, int(round(settle * clip.fps)) + 1):
             at = (frames - 1 + step) / clip.fps
-            sim.simulator.AdvanceTo(at)
+            sim.simulator.AdvanceTo(held / clip.fps + at)
             settled = step / clip.fps
             if fall(context):
                 fell_at = at
@@ -165,7 +176,8 @@ def perform(
     # The steps the controller took of its own to catch the robot (`whole_body.WholeBodyController._start_catch`):
     # when its foot lifted (s, the clip's time; in the settle after it, past its end) and which foot; a catch
     # whose foot the robot could not move is none.
-    report["catch_steps"] = controller.catch_steps()
+    report["lead_in_s"] = round(held / clip.fps, 3)
+    report["catch_steps"] = [[round(at - held / clip.fps, 3), foot] for at, foot in controller.catch_steps()]
     report["com_acceleration_error_m_s2"] = None if error is None else [round(float(e), 3) for e in error]
     torques = np.array(record["torques"])
     saturated = (np.abs(torques) >= SATURATED * emb.effort_limits).mean(axis=0) if len(torques) else None

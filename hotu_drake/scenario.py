@@ -17,6 +17,7 @@ still load; `LEGACY_FIELDS` says where each of their fields went.
 """
 
 import dataclasses
+import math
 import typing
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -51,6 +52,7 @@ LIMITS: dict[str, dict] = {
     "cube_size": {"low": 0.01, "high": 1.0, "unit": "m"},
     "cube_aim_height": {"low": -3.0, "high": 3.0, "unit": "m"},
 }
+MAX_LEAD_IN = 10.0  # s: the longest a `!WholeBodyTracking` clip's first frame is held before it
 MAX_PLANT_STEPS = 5e6  # per run: about an hour of a humanoid at 1 ms, hours of wall clock
 
 
@@ -123,10 +125,14 @@ class WholeBodyTracking:
     scenario's embodiment, or a `.npz` clip of it (as `!ReferenceTracking`
     takes), looping with its root motion or holding its end. It solves its
     QP at the scenario's `control_rate` and drives the built-in PD
-    (controller: implicit)."""
+    (controller: implicit). A clip that does not loop, started from its
+    first frame, is held there `lead_in` s before it moves (negative: as
+    long as the robot needs, `control.clip_plan.lead_in_for`); the
+    scenario's time counts from the start of the hold."""
 
     motion: str = "walk"
     loop: bool = True
+    lead_in: float = -1.0
 
 
 Driver = (
@@ -302,6 +308,12 @@ class Scenario:
                     "!WholeBodyTracking starts the robot on its clip: give initial.reference_time >= 0",
                     source,
                     "initial.reference_time",
+                )
+            if not math.isfinite(self.driver.lead_in) or self.driver.lead_in > MAX_LEAD_IN:
+                raise InputError(
+                    f"lead_in {self.driver.lead_in:g} s: give at most {MAX_LEAD_IN:g} s (negative: as the robot needs)",
+                    source,
+                    "driver.lead_in",
                 )
         if self.initial.reference_time >= 0 and not self.reference_motion:
             raise InputError(

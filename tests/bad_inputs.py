@@ -1150,3 +1150,12 @@ def corpus_summary() -> dict[str, int]:
 
 if __name__ == "__main__":
     print(json.dumps({"cases": len(CASES), **corpus_summary()}, indent=2))
+
+
+@case("simulate_lead_in_too_long", "cli", "lead_in")
+def _(tmp):
+    path = tmp / "long_wait.yaml"
+    text = "embodiment: h1\ncontrol_rate: 60.0\ninitial: {reference_time: 0.0}\n"
+    text += "driver: !WholeBodyTracking {motion: squat, loop: false, lead_in: 600.0}\n"
+    path.write_text(text)
+    return "hotu_drake.simulate", [str(path), "--duration", "0.1"]

@@ -79,3 +79,14 @@ def test_loader_rejects_what_it_does_not_understand(tmp_path, case, message):
     with pytest.raises(ClipFormatError, match=message) as error:
         MotionClip.load(path)
     assert str(error.value).startswith(str(path)) and "\n" not in str(error.value)
+
+
+def test_a_clip_held_at_its_first_frame_waits_at_rest_then_plays_unchanged():
+    clip = udh_test_clip()
+    held = clip.held_first(0.5)
+    frames = int(round(0.5 * clip.fps))
+    assert held.num_frames == clip.num_frames + frames
+    assert np.array_equal(held.joint_positions[:frames], np.repeat(clip.joint_positions[:1], frames, axis=0))
+    assert not held.joint_velocities[:frames].any() and not held.root_linear_velocity[:frames].any()
+    _same(held.slice(frames, held.num_frames), clip)
+    assert clip.held_first(0.0) is clip

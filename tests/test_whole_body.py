@@ -489,7 +489,7 @@ def test_a_foot_that_rolls_with_its_leg_lands_where_it_is_sent():
     controller, plant, model = sim.systems["whole_body_controller"], sim.plant, sim.model
     feet = {name: plant.GetBodyByName(sole.body.name(), model) for name, sole in controller.soles.items()}
     sent, misses = {}, []
-    for step in range(1, 160):  # 2.65 s: four landings
+    for step in range(1, 190):  # 3.15 s: its lead-in (`WEIGHT_SHIFT_LEAD_IN`), then four landings
         sim.simulator.AdvanceTo(step / 60.0 + 1e-9)
         for name, goal in sent.items():
             if name not in controller.swing_goals:  # it landed at this step
@@ -690,3 +690,27 @@ def test_a_fall_just_after_the_clip_ends_is_a_fall(monkeypatch):
     assert report["settle_s"] < 2.0  # cut short by the fall
     standing = perform(clip, settle=2.0).report
     assert not standing["fell"] and standing["settle_s"] == 2.0
+
+
+def test_a_robot_on_flat_soles_without_ankle_roll_shifts_its_weight_before_its_clip():
+    """H1 (no ankle roll: with both soles flat its legs cannot lean) holds a
+    clip that starts at rest at its first frame `WEIGHT_SHIFT_LEAD_IN` s
+    first, its plan moving its weight toward the first stance foot; the
+    report's times count from the clip's start. A clip caught mid-motion,
+    and robots with an ankle roll or line feet, start at once. H1's turning
+    walk from frame 3 stands (from ten starts: ten up, measured; 9 without)."""
+    from hotu_drake.control.clip_plan import WEIGHT_SHIFT_LEAD_IN, lead_in_for
+    from hotu_drake.physical import perform
+
+    h1 = embodiment.load("h1", "none")
+    assert lead_in_for(library_clip("walk", "h1", "none"), h1) == WEIGHT_SHIFT_LEAD_IN
+    assert lead_in_for(library_clip("boxing", "h1", "none").slice(7, 40), h1) == 0.0  # 2.2 rad/s at frame 7
+    for robot in ("udh", "walker", "bruce"):
+        assert lead_in_for(library_clip("walk", robot, "none"), embodiment.load(robot, "none")) == 0.0, robot
+    clip = library_clip("walk", "h1", "none").slice(0, 12)
+    report = perform(clip).report
+    assert report["lead_in_s"] == WEIGHT_SHIFT_LEAD_IN and report["frames"] == clip.num_frames
+    assert perform(clip, lead_in=0.0).report["lead_in_s"] == 0.0
+    turn = library_clip("walk_turn_right", "h1", "none")
+    report = perform(turn.slice(3, turn.num_frames)).report
+    assert not report["fell"], report["fell_at_s"]

@@ -41,7 +41,7 @@ def push_trial(robot: str, momentum: float, direction: str, walking: bool, folde
         path = standing_clip(emb, 3.0).save(folder / f"standing_{robot}.npz")
         scenario = Scenario(
             embodiment=robot,
-            driver=WholeBodyTracking(motion=str(path), loop=False),
+            driver=WholeBodyTracking(motion=str(path), loop=False, lead_in=0.0),
             initial=InitialCondition(reference_time=0.0),
             control_rate=60.0,
         )

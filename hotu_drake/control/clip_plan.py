@@ -19,7 +19,7 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.planning import ZmpPlanner
 from pydrake.trajectories import PiecewisePolynomial
 
-from hotu_drake.control.whole_body_qp import sole_corners
+from hotu_drake.control.whole_body_qp import feet_soles, sole_corners, soles_rolling_with_legs
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.playback import ClipPlayback
@@ -34,6 +34,16 @@ SHIFT_TIME = 0.3  # s: how long the planned pressure takes to move between a sta
 NOMINAL_RATE = 240.0  # Hz: the plan's nominal CoM sampled this often, interpolated between
 SUPPORT_SHRINK = 0.5  # the support the plan keeps the pressure in: the soles shrunk this much toward their anchors
 HALF_FRAME_SLACK = 1e-6  # frames: a clip time this near a half frame counts as on it
+# s: a robot standing on flat soles that roll only as its legs lean (H1: no ankle roll) holds a clip's first
+# frame this long before the clip moves, so that the plan's preview shifts its weight toward the first
+# stance foot before the clip lifts the other (`lead_in_for`). With both soles flat its legs cannot lean:
+# its centre of mass moves sideways in double support at a third to a half of what the plan asks, and the
+# clips' first steps come 0.3-0.45 s in. H1, library motions from ten starts: walk_turn_left 10/10 (8/10
+# without), walk_turn_right 10/10 (9/10); BRUCE (line feet, free to roll) fell more often with it.
+WEIGHT_SHIFT_LEAD_IN = 0.5
+# A clip's first frame is at rest (a lead-in may hold it) with no joint faster than this (rad/s) and its root
+# slower than this (m/s): held at rest, a clip caught mid-motion (H1's boxing 7-9 frames in) jumps to speed.
+AT_REST_JOINT_SPEED, AT_REST_ROOT_SPEED = 1.0, 0.3
 
 
 def pendulum_frequency(height: float) -> float:
@@ -123,6 +133,27 @@ def footstep_zmp(
                     zmp[k] = after + (t1 - t) / SHIFT_TIME * (zmp[k] - after)
         start = end + 1
     return zmp
+
+
+def lead_in_for(clip: MotionClip, embodiment: Embodiment) -> float:
+    """How long (s) `embodiment` holds `clip`'s first frame before
+    performing it from there: `WEIGHT_SHIFT_LEAD_IN` for a robot on flat
+    soles that roll only as its legs lean, if the clip starts at rest
+    (`AT_REST_JOINT_SPEED`, `AT_REST_ROOT_SPEED`); none otherwise."""
+    if clip.num_frames == 0 or not embodiment.floating_base:
+        return 0.0
+    if np.abs(clip.joint_velocities[0]).max(initial=0.0) > AT_REST_JOINT_SPEED:
+        return 0.0
+    if np.linalg.norm(clip.root_linear_velocity[0]) > AT_REST_ROOT_SPEED:
+        return 0.0
+    plant = MultibodyPlant(0.0)
+    model = embodiment.add_to_plant(plant, builtin_pd=False)
+    plant.Finalize()
+    soles = feet_soles(plant, embodiment)
+    if not soles or any(sole.is_line for sole in soles.values()):
+        return 0.0
+    rolling = soles_rolling_with_legs(plant, model, embodiment, soles)
+    return WEIGHT_SHIFT_LEAD_IN if all(rolling.values()) else 0.0
 
 
 def standing_clip(embodiment: Embodiment, seconds: float = 2.0, fps: float = 30.0) -> MotionClip:

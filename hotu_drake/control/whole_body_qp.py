@@ -32,7 +32,8 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 
 from hotu_drake.embodiment import Embodiment
-from hotu_drake.plant import GROUND_FRICTION
+from hotu_drake.embodiment.spec import SIDES
+from hotu_drake.plant import GROUND_FRICTION, actuated_state_indices, set_robot_state
 
 CONTACT_WEIGHT = 1e3  # a planted corner's acceleration, against the tasks' (order 1-100): soft, as the
 # torque limits are hard (with both hard, a clip that needs more torque than the robot has leaves no solution)
@@ -56,6 +57,8 @@ INFINITY = 1e30  # OSQP's
 # 1/s^2 and 1/s: a corner free to lift is kept from sinking by asking its height's acceleration to be at
 # least -(LIFT_STIFFNESS z + LIFT_DAMPING zdot): one at the floor stays at or above it.
 LIFT_STIFFNESS, LIFT_DAMPING = 400.0, 40.0
+ROLL_AXIS = 0.7  # a joint whose axis is this near a foot's length (cosine) turns the foot about it
+MIN_SOLE_WIDTH = 0.01  # m: a sole narrower than this across is a line of contacts, free to roll already
 SOLVED = (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE)
 
 
@@ -75,6 +78,38 @@ class Sole:
 
     body: object  # a pydrake RigidBody
     corners: np.ndarray
+
+    @property
+    def is_line(self) -> bool:
+        """Whether the sole is a line of contacts along its length (narrower than `MIN_SOLE_WIDTH` across)."""
+        return bool(np.ptp(self.corners[:, 1]) <= MIN_SOLE_WIDTH)
+
+
+def feet_soles(plant: MultibodyPlant, embodiment: Embodiment) -> dict[str, Sole]:
+    """The soles of the robot's feet in `plant`, by contact name (`left_foot`, `right_foot`; none on a base)."""
+    soles = {}
+    for side in SIDES:
+        link = embodiment.key_bodies.get(f"{side}_foot")
+        if link is not None:
+            soles[f"{side}_foot"] = Sole(plant.GetBodyByName(link), sole_corners(embodiment, link))
+    return soles
+
+
+def soles_rolling_with_legs(plant: MultibodyPlant, model, embodiment: Embodiment, soles: dict[str, Sole]) -> dict:
+    """Per sole, whether its foot turns about its length (its body's x
+    axis, along which every embodiment's sole is longest) only as its leg
+    leans: fewer than two of the robot's joints turn it about that axis (a
+    hip roll and no ankle roll: H1, BRUCE), read from the foot's rotational
+    Jacobian with the robot standing (`plant` holds it as `model`)."""
+    scratch = plant.CreateDefaultContext()
+    set_robot_state(plant, scratch, model, embodiment)
+    _, velocities = actuated_state_indices(plant, model, embodiment.joint_names)
+    joints, world, out = velocities - plant.num_positions(), plant.world_frame(), {}
+    for name, sole in soles.items():
+        axes = plant.CalcJacobianAngularVelocity(scratch, JacobianWrtVariable.kV, sole.body.body_frame(), world, world)
+        along = plant.EvalBodyPoseInWorld(scratch, sole.body).rotation().matrix()[:, 0]
+        out[name] = int((np.abs(along @ axes[:, joints]) > ROLL_AXIS).sum()) < 2
+    return out
 
 
 def sole_corners(embodiment: Embodiment, link: str) -> np.ndarray:

@@ -230,25 +230,39 @@ class MotionClip:
         """Frames [start, stop) as a new clip (`InputError` for an empty or outside range)."""
         if not (isinstance(start, int) and isinstance(stop, int) and 0 <= start < stop <= self.num_frames):
             raise InputError(f"frames [{start}, {stop}) are not a range of its {self.num_frames}", self.source, "slice")
-        s = np.s_[start:stop]
+        return self._frames(np.s_[start:stop])
+
+    def held_first(self, seconds: float) -> "MotionClip":
+        """The clip with its first frame held at rest for `seconds` (whole
+        frames, rounded) before it: time to get ready before it moves."""
+        held = int(round(seconds * self.fps))
+        if held <= 0:
+            return self
+        clip = self._frames(np.r_[np.zeros(held, int), np.arange(self.num_frames)])
+        for velocities in (clip.joint_velocities, clip.root_linear_velocity, clip.root_angular_velocity):
+            velocities[:held] = 0.0
+        return clip
+
+    def _frames(self, index) -> "MotionClip":
+        """The clip's frames at `index` (a slice or an array of frames) as a new clip."""
         return MotionClip(
             embodiment=self.embodiment,
             source=self.source,
             fps=self.fps,
             joint_names=list(self.joint_names),
-            joint_positions=self.joint_positions[s],
-            joint_velocities=self.joint_velocities[s],
-            root_position=self.root_position[s],
-            root_quaternion=self.root_quaternion[s],
-            root_linear_velocity=self.root_linear_velocity[s],
-            root_angular_velocity=self.root_angular_velocity[s],
+            joint_positions=self.joint_positions[index],
+            joint_velocities=self.joint_velocities[index],
+            root_position=self.root_position[index],
+            root_quaternion=self.root_quaternion[index],
+            root_linear_velocity=self.root_linear_velocity[index],
+            root_angular_velocity=self.root_angular_velocity[index],
             key_body_names=list(self.key_body_names),
-            key_body_positions=self.key_body_positions[s],
+            key_body_positions=self.key_body_positions[index],
             part_index=dict(self.part_index),
             object_names=list(self.object_names),
-            object_poses=None if self.object_poses is None else self.object_poses[s],
+            object_poses=None if self.object_poses is None else self.object_poses[index],
             contact_names=list(self.contact_names),
-            contacts=None if self.contacts is None else self.contacts[s],
+            contacts=None if self.contacts is None else self.contacts[index],
         )
 
     def save(self, path: str | Path, extra: dict[str, np.ndarray] | None = None) -> Path:

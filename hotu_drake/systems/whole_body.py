@@ -45,7 +45,14 @@ from hotu_drake.control.catch_step import (
 )
 from hotu_drake.control.clip_plan import ClipPlan, pendulum_frequency
 from hotu_drake.control.footsteps import beside_capture, heading_axes, predicted_capture, side_of
-from hotu_drake.control.whole_body_qp import Sole, Solution, Task, WholeBodyQp, sole_corners
+from hotu_drake.control.whole_body_qp import (
+    Sole,
+    Solution,
+    Task,
+    WholeBodyQp,
+    feet_soles,
+    soles_rolling_with_legs,
+)
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.actions import ActionScaling
 from hotu_drake.embodiment.spec import SIDES
@@ -89,8 +96,6 @@ STEP_LOOK_AHEAD = 0.15  # s: how far ahead a swing foot's step is placed for the
 CAPTURE_BESIDE = 0.01
 TOUCHING = 0.01  # m: a sole with a corner this close to the floor is down
 NEXT_STEP = 1e-6  # s: a step this near one period after the last is the next control step
-ROLL_AXIS = 0.7  # a joint whose axis is this near a foot's length (cosine) turns the foot about it
-MIN_SOLE_WIDTH = 0.01  # m: a sole narrower than this across is a line of contacts, free to roll already
 ROLLED = 0.005  # rad: a sole turned this far about its length stands on its lower edge
 LEANING = 0.05  # m/s^2: the sideways CoM acceleration asked for which both flat soles of a rolling pair tip
 LANDING_DEPTH = 0.005  # m: a foot the clip has down that is not yet down is drawn this far below the floor
@@ -181,18 +186,15 @@ class WholeBodyController(LeafSystem):
         self._sideways_demand = np.zeros(2)  # the ZMP plan's horizontal CoM acceleration at the last step
         self._scaling = ActionScaling.for_embodiment(embodiment)
         self.plan = ClipPlan(clip, plant, self._model, embodiment, self._reference, loop)
-        self._soles = {
-            f"{side}_foot": Sole(plant.GetBodyByName(embodiment.key_bodies[f"{side}_foot"]), corners)
-            for side in SIDES
-            if f"{side}_foot" in embodiment.key_bodies
-            for corners in [sole_corners(embodiment, embodiment.key_bodies[f"{side}_foot"])]
-        }
+        self._soles = feet_soles(plant, embodiment)
         if actuated_joint_order(plant, self._model) != embodiment.joint_names:
             raise RuntimeError(f"{embodiment.name}: actuator order differs from the spec's joint order")
         self._q, self._v = actuated_state_indices(plant, self._model, embodiment.joint_names)
         self._actuated_v = self._v - plant.num_positions()  # the joints' rows of vdot
-        self._roll_follows_leg = self._soles_turning_only_as_legs_lean()
-        self._line_soles = {name: np.ptp(sole.corners[:, 1]) <= MIN_SOLE_WIDTH for name, sole in self._soles.items()}
+        # A swing task asking a foot whose roll is its leg's to be level and at its sideways place asks the
+        # hip's roll for both, and the compromise landed H1's feet 8-11 cm off (its walk drifting sideways).
+        self._roll_follows_leg = soles_rolling_with_legs(plant, self._model, embodiment, self._soles)
+        self._line_soles = {name: sole.is_line for name, sole in self._soles.items()}
         on_lines = bool(self._soles) and all(self._line_soles.values())
         self._footing_easing = LINE_FOOTING_EASING if on_lines else FOOTING_EASING
         # Soles that stand on an edge as their legs lean sideways: such a foot with width (a line of contacts
@@ -243,25 +245,6 @@ class WholeBodyController(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(control_period, control_period - CONTROL_LEAD, self._Update)
         self.DeclareVectorOutputPort("desired_state", 2 * n, self._CalcDesiredState, {self.xd_ticket()})
         self.DeclareVectorOutputPort("torques", n, self._CalcTorques, {self.xd_ticket()})
-
-    def _soles_turning_only_as_legs_lean(self) -> dict[str, bool]:
-        """Per sole, whether its foot turns about its length (its body's x
-        axis, along which every embodiment's sole is longest) only as its leg
-        leans: fewer than two joints between it and the floating base turn it
-        about that axis (a hip roll and no ankle roll: H1, BRUCE), read from
-        the foot's rotational Jacobian standing. A swing task asking such a
-        foot to be level and at its sideways place asks the hip's roll for
-        both, and the compromise landed H1's feet 8-11 cm off (its walk
-        drifting sideways)."""
-        plant, scratch = self._plant, self._plant.CreateDefaultContext()
-        set_robot_state(plant, scratch, self._model, self.embodiment)
-        world, out = plant.world_frame(), {}
-        for name, sole in self._soles.items():
-            frame = sole.body.body_frame()
-            axes = plant.CalcJacobianAngularVelocity(scratch, JacobianWrtVariable.kV, frame, world, world)
-            along = plant.EvalBodyPoseInWorld(scratch, sole.body).rotation().matrix()[:, 0]
-            out[name] = int((np.abs(along @ axes[:, self._actuated_v]) > ROLL_AXIS).sum()) < 2
-        return out
 
     def catch_steps(self) -> list[list]:
         """The catch steps taken since `reset`, as a report lists them: [start time (s, rounded), foot]."""
