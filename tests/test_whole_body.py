@@ -285,16 +285,17 @@ def test_bruces_steps_land_beside_the_capture_point(monkeypatch):
 
 
 def test_bruces_plan_follows_its_line_feet(monkeypatch):
-    """BRUCE's looped walk from seed 7 stops after its first pass with a
+    """BRUCE's looped walk from seed 9 stops after its first pass with a
     foot placed off the clip's footprint; the clip moved to its line feet
-    within `LINE_FOOTING_EASING` it stands there (from ten seeds: ten up,
-    measured), eased over the 0.6 s the other robots use it falls."""
+    within `LINE_FOOTING_EASING` it stands there (from seeds 0-9: ten up,
+    measured), eased over the 0.6 s the other robots use it falls (seeds 4,
+    6 and 9 of 0-9, measured; seed 9 at 3.3 s)."""
     from hotu_drake.diagrams import build_simulation
     from hotu_drake.scenario import load_scenario
 
     def falls() -> bool:  # within 4 s: the stop is at 2.4-3.3 s
         scenario = load_scenario("whole_body_walk_bruce")
-        scenario.seed = 7
+        scenario.seed = 9
         sim = build_simulation(scenario)
         fall, context = sim.fall_check(), sim.plant_context()
         for step in range(1, 41):
@@ -713,4 +714,27 @@ def test_a_robot_on_flat_soles_without_ankle_roll_shifts_its_weight_before_its_c
     assert perform(clip, lead_in=0.0).report["lead_in_s"] == 0.0
     turn = library_clip("walk_turn_right", "h1", "none")
     report = perform(turn.slice(3, turn.num_frames)).report
+    assert not report["fell"], report["fell_at_s"]
+
+
+def test_a_swinging_legs_posture_gives_way_to_its_foot():
+    """The posture task holds a swinging leg's hip, knee and ankle at
+    `SWING_LEG_POSTURE` of its weight (the swing foot's task places them),
+    every other joint at the full weight. At the full weight BRUCE's swing
+    feet touched down at 80% of their swing and its backward walk fell from
+    two starts of four; eased, it walks backward from its first frame
+    (from ten starts: ten up, measured; eight before)."""
+    from hotu_drake.physical import perform
+
+    clip = library_clip("walk_backward", "bruce", "none")
+    controller = WholeBodyController(embodiment.load("bruce", "none"), clip, 1.0 / 60.0, loop=False)
+    plant, context = controller._plant, controller._context
+    controller.plan.set_reference(context, 0.5)
+    controller.act(plant.GetPositionsAndVelocities(context), 0.5)  # the clip's state in the controller's context
+    weights = controller.tasks(0.5, {"left_foot": True, "right_foot": False})[-1].weight
+    names = controller.embodiment.joint_names
+    eased = {name for name, weight in zip(names, weights) if weight < controller.gains.posture_weight}
+    assert eased == {"right_hip_z", "right_hip_x", "right_hip_y", "right_knee_y", "right_ankle_y"}, eased
+    assert np.allclose(weights[[names.index(n) for n in eased]], whole_body.SWING_LEG_POSTURE)
+    report = perform(clip).report
     assert not report["fell"], report["fell_at_s"]

@@ -125,6 +125,16 @@ FOOTING_EASING = 0.6  # s: the time constant over which the tracked clip moves t
 # 4 of 10 seeds). At 0.1: 10 of 10; 0.05, 0.15: 10 of 10 too, eight motions from ten starts 72 and 71 of 80
 # against 73 (69 at 0.6).
 LINE_FOOTING_EASING = 0.1
+# On line feet (where only where a foot lands balances the robot) a swinging leg's joints (its hip, knee and
+# ankle) hold the clip's posture at this share of the posture's weight: the swing foot's task places them. At the
+# full weight the posture held BRUCE's swing foot down as it lifted (asked +10 m/s^2 up, the QP gave +1): it rose
+# 1.8 of the clip's 3.3 cm and touched down at 80% of its swing, so the step adjustment, taken in over the swing,
+# came after the foot could no longer move; walking backward each step landed 3-5 cm past where it was sent and
+# the body fell behind its plan (walk_backward 2/4 from four starts). At 0.5: BRUCE's walk_backward 4/4 (10/10
+# from ten starts, 8/10 before) and its looped walk 10 of 10 seeds (5 of 6); none (0.0) lost its walks (1/4),
+# 0.3 its fast walk (1/4), 0.7 its fast walk 2/4. On every robot: H1's box carry and left turn 3/4 (4/4).
+SWING_LEG_POSTURE = 0.5
+LEG_PARTS = ("hip", "knee", "ankle")
 
 
 def _rotation_vector(rotation) -> np.ndarray:
@@ -197,6 +207,14 @@ class WholeBodyController(LeafSystem):
         self._line_soles = {name: sole.is_line for name, sole in self._soles.items()}
         on_lines = bool(self._soles) and all(self._line_soles.values())
         self._footing_easing = LINE_FOOTING_EASING if on_lines else FOOTING_EASING
+        # On line feet, each foot's leg: its side's hip, knee and ankle (the posture's rows eased as it swings).
+        leg = {joint for part in LEG_PARTS for joint in embodiment.parts.get(part, [])} if on_lines else set()
+        names = embodiment.joint_names
+        self._leg_joints = {
+            name: np.array([j for j, joint in enumerate(names) if joint in leg and joint.startswith(side)], int)
+            for name in self._soles
+            for side in [name.removesuffix("foot")]
+        }
         # Soles that stand on an edge as their legs lean sideways: such a foot with width (a line of contacts
         # turns about its line already). H1's: with both flat its legs cannot lean (`contacts`).
         self._rolls_on_edges = {
@@ -564,7 +582,11 @@ class WholeBodyController(LeafSystem):
             + stiffness * (q_reference[positions] - q[positions])
             + _damping(stiffness) * (v_reference[velocities] - v[velocities])
         )
-        tasks.append(Task(self._joint_rows, np.zeros(len(positions)), posture, gains.posture_weight))
+        weight = np.full(len(positions), gains.posture_weight)
+        for name, joints in self._leg_joints.items():
+            if not planted.get(name):
+                weight[joints] *= SWING_LEG_POSTURE
+        tasks.append(Task(self._joint_rows, np.zeros(len(positions)), posture, weight))
         return tasks
 
     def _balance_tasks(self, time: float, planted: dict[str, bool]) -> list[Task]:
