@@ -576,7 +576,9 @@ def _led_in(scenario: Scenario, emb: Embodiment, clip: MotionClip | None) -> Mot
     """The clip a `!WholeBodyTracking` run performs: one that does not loop,
     started from its first frame, held there first (`WholeBodyTracking.lead_in`)."""
     driver = scenario.driver
-    if clip is None or not isinstance(driver, WholeBodyTracking) or driver.loop or scenario.initial.reference_time:
+    if clip is None or not isinstance(driver, WholeBodyTracking) or driver.loop:
+        return clip
+    if scenario.initial.reference_time != 0.0:  # a run started partway through moves at once
         return clip
     return clip.held_first(driver.lead_in if driver.lead_in >= 0.0 else lead_in_for(clip, emb))
 

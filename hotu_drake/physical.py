@@ -12,8 +12,9 @@ clip: whether and when it fell (in the clip or in the `SETTLE` s after
 it, its last frame held), its travel against the clip's, joint and
 key-body RMS against the clip, the share of frames with a joint at its
 torque limit, the least margin of its centre of pressure inside the
-support of its loaded feet, the wall time (of the clip's frames), the
-steps the controller took of its own to catch the robot, and for a robot
+support of its loaded feet, the wall time (the diagram built, its
+lead-in and the clip's frames), the steps the controller took of its own
+to catch the robot, and for a robot
 that fell what in the clip is past it (`cannot`: a flight
 phase, a joint asked more than its torque limit).
 """
@@ -108,11 +109,13 @@ def perform(
         name: [] for name in ("q", "root_p", "root_q", "keys", "actions", "torques", "forces", "pressure", "corners")
     }
     sole_bodies = [plant.GetBodyByName(sole.body.name(), model) for sole in soles.values()]
-    fell_at = None
+    fell_at, checked = None, 0
     for frame in range(-held, frames):
         sim.simulator.AdvanceTo((held + frame) / clip.fps)
-        if frame < 0:  # the lead-in: standing, not yet the clip (a fall in it is one at its first frame)
+        if frame < 0:  # the lead-in: standing, not yet the clip (a robot down in it is down at the clip's start)
             continue
+        if frame == 0:
+            checked = controller.predictions_checked  # the lead-in's, left out of the prediction error
         record["q"].append([plant.GetPositions(context)[joint.position_start()] for joint in joints])
         pose = plant.EvalBodyPoseInWorld(context, root)
         record["root_p"].append(pose.translation())
@@ -135,14 +138,14 @@ def perform(
         if fall(context):
             fell_at = frame / clip.fps
             break
-    wall = time.perf_counter() - start  # through the clip's frames
+    wall = time.perf_counter() - start  # the diagram built, its lead-in and the clip's frames
     done = len(record["q"])
-    error = controller.prediction_error()  # over the clip's frames, as every other figure
+    error = controller.prediction_error(checked)  # over the clip's frames, as every other figure
     settled = 0.0  # s held after the clip's end, as simulated
     if fell_at is None and not loop:
         for step in range(1, int(round(settle * clip.fps)) + 1):
             at = (frames - 1 + step) / clip.fps
-            sim.simulator.AdvanceTo(held / clip.fps + at)
+            sim.simulator.AdvanceTo((held + frames - 1 + step) / clip.fps)  # on the frames' grid
             settled = step / clip.fps
             if fall(context):
                 fell_at = at
@@ -174,8 +177,8 @@ def perform(
     report |= {"fell": fell_at is not None, "fell_at_s": fell_at, "frames": done, "wall_time_s": round(wall, 2)}
     report["settle_s"] = round(settled, 3)
     # The steps the controller took of its own to catch the robot (`whole_body.WholeBodyController._start_catch`):
-    # when its foot lifted (s, the clip's time; in the settle after it, past its end) and which foot; a catch
-    # whose foot the robot could not move is none.
+    # when its foot lifted (s, the clip's time; in the settle after it, past its end; in its lead-in, before
+    # 0) and which foot; a catch whose foot the robot could not move is none.
     report["lead_in_s"] = round(held / clip.fps, 3)
     report["catch_steps"] = [[round(at - held / clip.fps, 3), foot] for at, foot in controller.catch_steps()]
     report["com_acceleration_error_m_s2"] = None if error is None else [round(float(e), 3) for e in error]

@@ -315,6 +315,14 @@ class Scenario:
                     source,
                     "driver.lead_in",
                 )
+            starts_later = self.initial.reference_time != 0.0 or bool(self.vary.reference_time)
+            if self.driver.lead_in > 0.0 and (self.driver.loop or starts_later):
+                raise InputError(
+                    "lead_in holds a clip's first frame: give it for a clip that does not loop (loop: false), "
+                    "started at its first frame (initial.reference_time 0, no vary.reference_time)",
+                    source,
+                    "driver.lead_in",
+                )
         if self.initial.reference_time >= 0 and not self.reference_motion:
             raise InputError(
                 "needs a reference motion (initial.motion or driver !ReferenceTracking)",

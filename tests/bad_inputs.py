@@ -1148,10 +1148,6 @@ def corpus_summary() -> dict[str, int]:
     return families
 
 
-if __name__ == "__main__":
-    print(json.dumps({"cases": len(CASES), **corpus_summary()}, indent=2))
-
-
 @case("simulate_lead_in_too_long", "cli", "lead_in")
 def _(tmp):
     path = tmp / "long_wait.yaml"
@@ -1159,3 +1155,16 @@ def _(tmp):
     text += "driver: !WholeBodyTracking {motion: squat, loop: false, lead_in: 600.0}\n"
     path.write_text(text)
     return "hotu_drake.simulate", [str(path), "--duration", "0.1"]
+
+
+@case("simulate_lead_in_on_a_loop", "cli", "lead_in")
+def _(tmp):
+    path = tmp / "looped_wait.yaml"
+    text = "embodiment: h1\ncontrol_rate: 60.0\ninitial: {reference_time: 0.0}\n"
+    text += "driver: !WholeBodyTracking {motion: walk, loop: true, lead_in: 0.5}\n"
+    path.write_text(text)
+    return "hotu_drake.simulate", [str(path), "--duration", "0.1"]
+
+
+if __name__ == "__main__":
+    print(json.dumps({"cases": len(CASES), **corpus_summary()}, indent=2))

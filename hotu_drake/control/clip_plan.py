@@ -19,7 +19,7 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.planning import ZmpPlanner
 from pydrake.trajectories import PiecewisePolynomial
 
-from hotu_drake.control.whole_body_qp import feet_soles, sole_corners, soles_rolling_with_legs
+from hotu_drake.control.whole_body_qp import feet_soles, sole_corners, soles_on_edges, soles_rolling_with_legs
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.playback import ClipPlayback
@@ -150,10 +150,8 @@ def lead_in_for(clip: MotionClip, embodiment: Embodiment) -> float:
     model = embodiment.add_to_plant(plant, builtin_pd=False)
     plant.Finalize()
     soles = feet_soles(plant, embodiment)
-    if not soles or any(sole.is_line for sole in soles.values()):
-        return 0.0
-    rolling = soles_rolling_with_legs(plant, model, embodiment, soles)
-    return WEIGHT_SHIFT_LEAD_IN if all(rolling.values()) else 0.0
+    on_edges = soles_on_edges(soles_rolling_with_legs(plant, model, embodiment, soles), soles)
+    return WEIGHT_SHIFT_LEAD_IN if on_edges and all(on_edges.values()) else 0.0
 
 
 def standing_clip(embodiment: Embodiment, seconds: float = 2.0, fps: float = 30.0) -> MotionClip:

@@ -29,7 +29,7 @@ import numpy as np
 import osqp
 import scipy.sparse as sparse
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.multibody.tree import JacobianWrtVariable
+from pydrake.multibody.tree import JacobianWrtVariable, ModelInstanceIndex
 
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.spec import SIDES
@@ -95,7 +95,9 @@ def feet_soles(plant: MultibodyPlant, embodiment: Embodiment) -> dict[str, Sole]
     return soles
 
 
-def soles_rolling_with_legs(plant: MultibodyPlant, model, embodiment: Embodiment, soles: dict[str, Sole]) -> dict:
+def soles_rolling_with_legs(
+    plant: MultibodyPlant, model: ModelInstanceIndex, embodiment: Embodiment, soles: dict[str, Sole]
+) -> dict[str, bool]:
     """Per sole, whether its foot turns about its length (its body's x
     axis, along which every embodiment's sole is longest) only as its leg
     leans: fewer than two of the robot's joints turn it about that axis (a
@@ -110,6 +112,14 @@ def soles_rolling_with_legs(plant: MultibodyPlant, model, embodiment: Embodiment
         along = plant.EvalBodyPoseInWorld(scratch, sole.body).rotation().matrix()[:, 0]
         out[name] = int((np.abs(along @ axes[:, joints]) > ROLL_AXIS).sum()) < 2
     return out
+
+
+def soles_on_edges(rolling: dict[str, bool], soles: dict[str, Sole]) -> dict[str, bool]:
+    """Per sole, whether it stands on an edge as its leg leans: one whose
+    roll is its leg's (`rolling`, `soles_rolling_with_legs`) with width
+    across (a line of contacts turns about its line already). H1's: with
+    both flat, its legs cannot lean."""
+    return {name: rolling[name] and not sole.is_line for name, sole in soles.items()}
 
 
 def sole_corners(embodiment: Embodiment, link: str) -> np.ndarray:

@@ -235,6 +235,8 @@ class MotionClip:
     def held_first(self, seconds: float) -> "MotionClip":
         """The clip with its first frame held at rest for `seconds` (whole
         frames, rounded) before it: time to get ready before it moves."""
+        if not np.isfinite(seconds):
+            raise InputError(f"a lead-in of {seconds} s is no time", self.source, "held_first")
         held = int(round(seconds * self.fps))
         if held <= 0:
             return self

@@ -51,6 +51,7 @@ from hotu_drake.control.whole_body_qp import (
     Task,
     WholeBodyQp,
     feet_soles,
+    soles_on_edges,
     soles_rolling_with_legs,
 )
 from hotu_drake.embodiment import Embodiment
@@ -211,15 +212,14 @@ class WholeBodyController(LeafSystem):
         leg = {joint for part in LEG_PARTS for joint in embodiment.parts.get(part, [])} if on_lines else set()
         names = embodiment.joint_names
         self._leg_joints = {
-            name: np.array([j for j, joint in enumerate(names) if joint in leg and joint.startswith(side)], int)
+            name: np.array([j for j, joint in enumerate(names) if joint in leg and joint.startswith(prefix)], int)
             for name in self._soles
-            for side in [name.removesuffix("foot")]
+            for prefix in [name.removesuffix("foot")]  # "left_": the spec's `<side>_<part>_<axis>` names
         }
-        # Soles that stand on an edge as their legs lean sideways: such a foot with width (a line of contacts
-        # turns about its line already). H1's: with both flat its legs cannot lean (`contacts`).
-        self._rolls_on_edges = {
-            name: self._roll_follows_leg[name] and not self._line_soles[name] for name in self._soles
-        }
+        if leg and not all(len(joints) for joints in self._leg_joints.values()):
+            raise RuntimeError(f"{embodiment.name}: a foot with no hip, knee or ankle joint named for its side")
+        # Soles that stand on an edge as their legs lean sideways (`contacts`).
+        self._rolls_on_edges = soles_on_edges(self._roll_follows_leg, self._soles)
         self.qp = WholeBodyQp(plant, self._soles, embodiment.effort_limits)
         # At 10 whatever the size, BRUCE (its CoM 0.41 m high) fell in both sidesteps and Walker (0.70 m) in
         # leg_stretch from every start, turning the body where the CoM needed moving (BENCHMARKS.md).
@@ -352,17 +352,23 @@ class WholeBodyController(LeafSystem):
         self.timings["calls"] += 1
         return self.last_action
 
-    def prediction_error(self) -> np.ndarray | None:
+    @property
+    def predictions_checked(self) -> int:
+        """How many control steps' predictions have been checked since `reset` (`prediction_error`)."""
+        return len(self._prediction_errors)
+
+    def prediction_error(self, skip: int = 0) -> np.ndarray | None:
         """The median (m/s^2, world x, y, z; over the control steps since
-        `reset`, None before two) of how far the CoM acceleration each
-        solution predicted was from the one the robot had over the next
-        period, at the diagram's control steps: where the QP's model of the
-        robot and its contacts is wrong (H1's sideways, its soles unable to
-        roll as the QP lets them). The median, as a landing's impact is no
-        error of the model's."""
-        if not self._prediction_errors:
+        `reset` but the first `skip` checked, say a lead-in's; None before
+        two) of how far the CoM acceleration each solution predicted was
+        from the one the robot had over the next period, at the diagram's
+        control steps: where the QP's model of the robot and its contacts is
+        wrong (H1's sideways, its soles unable to roll as the QP lets them).
+        The median, as a landing's impact is no error of the model's."""
+        errors = self._prediction_errors[skip:]
+        if not errors:
             return None
-        return np.median(np.abs(self._prediction_errors), axis=0)
+        return np.median(np.abs(errors), axis=0)
 
     def _check_prediction(self, time: float) -> None:
         """At a control step of the diagram (the state `act` set in the
