@@ -87,6 +87,8 @@ def test_a_clip_held_at_its_first_frame_waits_at_rest_then_plays_unchanged():
     frames = int(round(0.5 * clip.fps))
     assert held.num_frames == clip.num_frames + frames
     assert np.array_equal(held.joint_positions[:frames], np.repeat(clip.joint_positions[:1], frames, axis=0))
-    assert not held.joint_velocities[:frames].any() and not held.root_linear_velocity[:frames].any()
+    for velocities in (held.joint_velocities, held.root_linear_velocity, held.root_angular_velocity):
+        assert not velocities[:frames].any()
     _same(held.slice(frames, held.num_frames), clip)
+    _same(clip, udh_test_clip())  # the clip it holds is left as it was
     assert clip.held_first(0.0) is clip
