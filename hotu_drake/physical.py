@@ -112,7 +112,9 @@ def perform(
     fell_at, checked = None, 0
     for frame in range(-held, frames):
         sim.simulator.AdvanceTo((held + frame) / clip.fps)
-        if frame < 0:  # the lead-in: standing, not yet the clip (a robot down in it is down at the clip's start)
+        # The lead-in: standing, not yet the clip (a robot down in it is down at the clip's start). Stepped
+        # frame by frame as the clip is: advanced over it in one call, H1's turning walk ended 0.7 mm elsewhere.
+        if frame < 0:
             continue
         if frame == 0:
             checked = controller.predictions_checked  # the lead-in's, left out of the prediction error

@@ -711,13 +711,16 @@ def _(tmp):
     return "hotu_drake.simulate", [str(path)]
 
 
+def _whole_body_run(path: Path, driver: str, more: str = "") -> tuple[str, list[str]]:
+    """`simulate` for 0.1 s on H1 under `!WholeBodyTracking {driver}`, started on its clip (`more`: further YAML)."""
+    text = "embodiment: h1\ncontrol_rate: 60.0\ninitial: {reference_time: 0.0}\n"
+    path.write_text(text + f"driver: !WholeBodyTracking {{{driver}}}\n" + more)
+    return "hotu_drake.simulate", [str(path), "--duration", "0.1"]
+
+
 @case("simulate_vary_start_beyond_the_clip", "cli", "beyond the")
 def _(tmp):
-    path = tmp / "family.yaml"
-    text = "embodiment: h1\ncontrol_rate: 60.0\ninitial: {reference_time: 0.0}\n"
-    text += "driver: !WholeBodyTracking {motion: squat, loop: false}\nvary:\n  reference_time: [0.0, 50.0]\n"
-    path.write_text(text)
-    return "hotu_drake.simulate", [str(path), "--duration", "0.1"]
+    return _whole_body_run(tmp / "family.yaml", "motion: squat, loop: false", "vary:\n  reference_time: [0.0, 50.0]\n")
 
 
 @case("simulate_vary_task_without_object", "cli", "vary.task")
@@ -1150,20 +1153,12 @@ def corpus_summary() -> dict[str, int]:
 
 @case("simulate_lead_in_too_long", "cli", "lead_in")
 def _(tmp):
-    path = tmp / "long_wait.yaml"
-    text = "embodiment: h1\ncontrol_rate: 60.0\ninitial: {reference_time: 0.0}\n"
-    text += "driver: !WholeBodyTracking {motion: squat, loop: false, lead_in: 600.0}\n"
-    path.write_text(text)
-    return "hotu_drake.simulate", [str(path), "--duration", "0.1"]
+    return _whole_body_run(tmp / "long_wait.yaml", "motion: squat, loop: false, lead_in: 600.0")
 
 
 @case("simulate_lead_in_on_a_loop", "cli", "lead_in")
 def _(tmp):
-    path = tmp / "looped_wait.yaml"
-    text = "embodiment: h1\ncontrol_rate: 60.0\ninitial: {reference_time: 0.0}\n"
-    text += "driver: !WholeBodyTracking {motion: walk, loop: true, lead_in: 0.5}\n"
-    path.write_text(text)
-    return "hotu_drake.simulate", [str(path), "--duration", "0.1"]
+    return _whole_body_run(tmp / "looped_wait.yaml", "motion: walk, loop: true, lead_in: 0.5")
 
 
 if __name__ == "__main__":

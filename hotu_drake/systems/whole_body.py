@@ -209,15 +209,14 @@ class WholeBodyController(LeafSystem):
         on_lines = bool(self._soles) and all(self._line_soles.values())
         self._footing_easing = LINE_FOOTING_EASING if on_lines else FOOTING_EASING
         # On line feet, each foot's leg: its side's hip, knee and ankle (the posture's rows eased as it swings).
-        leg = {joint for part in LEG_PARTS for joint in embodiment.parts.get(part, [])} if on_lines else set()
-        names = embodiment.joint_names
+        joints = embodiment.spec.joints
         self._leg_joints = {
-            name: np.array([j for j, joint in enumerate(names) if joint in leg and joint.startswith(prefix)], int)
-            for name in self._soles
-            for prefix in [name.removesuffix("foot")]  # "left_": the spec's `<side>_<part>_<axis>` names
+            name: np.array([j for j, joint in enumerate(joints) if joint.part in LEG_PARTS and joint.side == side], int)
+            for name in (self._soles if on_lines else {})
+            for side in [name.removesuffix("_foot")]
         }
-        if leg and not all(len(joints) for joints in self._leg_joints.values()):
-            raise RuntimeError(f"{embodiment.name}: a foot with no hip, knee or ankle joint named for its side")
+        if not all(len(leg) for leg in self._leg_joints.values()):
+            raise RuntimeError(f"{embodiment.name}: a foot with no hip, knee or ankle joint on its side")
         # Soles that stand on an edge as their legs lean sideways (`contacts`).
         self._rolls_on_edges = soles_on_edges(self._roll_follows_leg, self._soles)
         self.qp = WholeBodyQp(plant, self._soles, embodiment.effort_limits)
