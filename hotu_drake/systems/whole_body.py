@@ -362,7 +362,8 @@ class WholeBodyController(LeafSystem):
         two) of how far the CoM acceleration each solution predicted was
         from the one the robot had over the next period, at the diagram's
         control steps: where the QP's model of the robot and its contacts is
-        wrong (H1's sideways, its soles unable to roll as the QP lets them).
+        wrong (H1's sideways lean on flat soles: its soft contacts let the
+        QP sink one held edge and lift the other, `whole_body_qp.CONTACT_WEIGHT`).
         The median, as a landing's impact is no error of the model's."""
         errors = self._prediction_errors[skip:]
         if not errors:
