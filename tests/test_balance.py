@@ -12,6 +12,7 @@ from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.library import generate
 from hotu_drake.motion.load import load_motion
 from hotu_drake.retarget.balance import (
+    ANKLE_ALONE,
     MOST_MOVED,
     ClipBalance,
     Support,
@@ -125,6 +126,26 @@ def test_the_balance_pass_keeps_the_body_where_the_ankles_can_hold_it():
     h1 = ClipBalance(embodiment.load("h1", "none"))
     link, points, _ = h1.soles.feet["left"]
     assert h1.ankle_reach > np.abs(points[:, 0]).max()
+
+
+def test_on_one_foot_the_support_reaches_as_far_as_that_ankle_alone_holds():
+    """Standing on its left foot, NAVIAI's left ankle alone holds its 26 kg:
+    the support the balance pass aims at reaches `ANKLE_ALONE` of 13 N m /
+    (m g) ahead of that ankle (4 cm, the sole 13 cm), half as far as on
+    both feet; without the ankles' hold, the whole sole."""
+    naviai = ClipBalance(embodiment.load("naviai", "none"))
+    clip = _standing("naviai", frames=10)
+    poses = naviai.poses(clip.joint_positions, quat_to_matrix(clip.root_quaternion), clip.root_position)
+    planted = {"left": np.ones(10, bool), "right": np.arange(10) < 5}  # the right foot lifted from frame 5
+    sides = list(naviai.soles.feet)
+    count = len(naviai.soles.feet["left"][1])
+    left = slice(sides.index("left") * count, (sides.index("left") + 1) * count)
+    ankle = poses.positions[:, naviai.soles.feet["left"][0], 0]
+    ahead = naviai.support(poses, planted, ankles_hold=True).points[:, left, 0].max(axis=1) - ankle
+    assert ahead[:5] == pytest.approx(np.full(5, naviai.ankle_reach), abs=1e-9)
+    assert ahead[5:] == pytest.approx(np.full(5, ANKLE_ALONE * naviai.ankle_reach / 2.0), abs=1e-9)
+    sole = naviai.support(poses, planted).points[:, left, 0].max(axis=1) - ankle
+    assert sole == pytest.approx(np.full(10, naviai.soles.feet["left"][1][:, 0].max()), abs=1e-9)
 
 
 def test_torques_of_standing_still_are_within_the_limits_and_a_crouch_asks_more_of_the_knees():

@@ -7,7 +7,7 @@ import pytest
 from pydrake.multibody.math import SpatialVelocity
 
 from hotu_drake import embodiment
-from hotu_drake.control.clip_plan import standing_clip
+from hotu_drake.control.clip_plan import ClipPlan, standing_clip
 from hotu_drake.diagrams import build_simulation
 from hotu_drake.errors import InputError
 from hotu_drake.motion.playback import ClipPlayback
@@ -310,19 +310,45 @@ def test_bruces_plan_follows_its_line_feet(monkeypatch):
 
 
 def test_the_back_foot_of_a_lunge_stands_on_its_toes(monkeypatch):
-    """The UDH's leg_stretch lunges with its back heel up and its ball down
+    """NAVIAI's leg_stretch lunges with its back heel up and its ball down
     (the clip's foot planted, its sole pitched 0.55 rad): held on its toes
-    (`PLANTED_TOE_PITCH`) the UDH stands through the clip from its first
+    (`PLANTED_TOE_PITCH`) NAVIAI stands through the clip from its first
     frame, without a catch step (from four starts: four up, measured);
-    held flat it falls (three of four)."""
+    held flat it falls (three of four; from its first frame at 4.1 s)."""
     from hotu_drake.physical import perform
 
-    clip = library_clip("leg_stretch", "udh", "none")
+    clip = library_clip("leg_stretch", "naviai", "none")
     report = perform(clip).report
     assert not report["fell"], report["fell_at_s"]
     assert not report["catch_steps"]
     monkeypatch.setattr(whole_body, "PLANTED_TOE_PITCH", np.inf)
     assert perform(clip).report["fell"]
+
+
+def test_a_foot_lifted_in_place_stays_on_its_toes(monkeypatch):
+    """leg_stretch's labels lift the lunge's back foot as its heel rises and
+    comes down (its ankle moving), though its toes stay on the floor: the
+    plan knows those lifts as in place, and the controller keeps the foot on
+    its lowest edge through them. NAVIAI, two frames in, stands through the
+    clip without a catch step (from four starts: four up, measured); let go
+    there it stands on its front foot alone, its body behind it, and falls
+    (2.9 s; three starts of four)."""
+    from hotu_drake.physical import perform
+
+    clip = library_clip("leg_stretch", "naviai", "none")
+    controller = WholeBodyController(embodiment.load("naviai", "none"), clip, 1.0 / 60.0, loop=False)
+    lifts = np.flatnonzero(~clip.contact("left_foot").astype(bool))
+    in_place = np.array([controller.plan.lifted_in_place("left_foot", frame / clip.fps) for frame in lifts])
+    lunge = lifts / clip.fps < 3.2  # the heel up and down (1.27-1.67 s, 2.67-3.07 s); then the side lunge's steps
+    assert lunge.sum() >= 20 and in_place[lunge].all() and not in_place[~lunge].any()
+    assert not any(controller.plan.lifted_in_place("right_foot", f / clip.fps) for f in range(clip.num_frames))
+    frame = int(lifts[lunge][len(lifts[lunge]) // 2])
+    controller.plan.set_reference(controller._reference, frame / clip.fps)
+    assert "left_foot" in controller.pushing_off(frame / clip.fps)
+    report = perform(clip.slice(2, clip.num_frames)).report
+    assert not report["fell"] and not report["catch_steps"], report["fell_at_s"]
+    monkeypatch.setattr(ClipPlan, "lifted_in_place", lambda self, name, time: False)
+    assert perform(clip.slice(2, clip.num_frames)).report["fell"]
 
 
 def test_a_trailing_foot_pushes_off():

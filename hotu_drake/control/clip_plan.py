@@ -44,6 +44,9 @@ WEIGHT_SHIFT_LEAD_IN = 0.5
 # A clip's first frame is at rest (a lead-in may hold it) with no joint faster than this (rad/s) and its root
 # slower than this (m/s): held at rest, a clip caught mid-motion (H1's boxing 7-9 frames in) jumps to speed.
 AT_REST_JOINT_SPEED, AT_REST_ROOT_SPEED = 1.0, 0.3
+# m: a foot the clip lifts whose sole stays this near the floor over the whole lift (between two frames down)
+# is lifted in place: its heel rises and comes down over toes that stay down (`ClipPlan.lifted_in_place`).
+IN_PLACE_HEIGHT = 0.01
 
 
 def pendulum_frequency(height: float) -> float:
@@ -133,6 +136,22 @@ def footstep_zmp(
                     zmp[k] = after + (t1 - t) / SHIFT_TIME * (zmp[k] - after)
         start = end + 1
     return zmp
+
+
+def _lifted_in_place(down: np.ndarray, lowest: np.ndarray) -> np.ndarray:
+    """The frames (T,) of each lift of a foot (`down` False between two
+    frames down) whose sole's lowest corner (`lowest`, m, per frame) stays
+    within `IN_PLACE_HEIGHT` of the floor over all of it."""
+    out = np.zeros(len(down), bool)
+    start = None
+    for frame, flag in enumerate([*down, True]):
+        if not flag and start is None:
+            start = frame
+        elif flag and start is not None:
+            if start > 0 and frame < len(down) and lowest[start:frame].max() < IN_PLACE_HEIGHT:
+                out[start:frame] = True
+            start = None
+    return out
 
 
 def lead_in_for(clip: MotionClip, embodiment: Embodiment) -> float:
@@ -323,6 +342,14 @@ class ClipPlan:
         lifted = self._frames_since_down(flags, frame)
         return lifted / (lifted + self._frames_to_landing(flags, frame))
 
+    def lifted_in_place(self, name: str, time: float) -> bool:
+        """Whether the clip has foot `name` up at `time` in a lift whose sole
+        never leaves the floor (`IN_PLACE_HEIGHT`): the back foot of a lunge,
+        its heel rising over its toes and coming down again (the library's
+        contacts end as the ankle moves, `generate._foot_contacts`)."""
+        flags = self._in_place.get(name)
+        return flags is not None and bool(flags[self._frame(time)])
+
     def since_lifting(self, name: str, time: float) -> float:
         """Seconds from the clip's last frame with foot `name` down to `time`
         (0 while it is down; a loop's swing may span the seam between passes)."""
@@ -372,6 +399,7 @@ class ClipPlan:
         clip, plant, fps = self.clip, self.plant, self.clip.fps
         passes = 3 if self.loop else 1
         times, com, planted, anchors, supports = [], [], [], [], []
+        lowest = {name: np.zeros(clip.num_frames) for name in self._feet}  # each sole's lowest corner (z: any pass)
         for index in range(passes):
             for frame in range(clip.num_frames - (1 if index < passes - 1 else 0)):
                 time = index * self.period + frame / fps
@@ -381,10 +409,18 @@ class ClipPlan:
                 feet_down = (name for name, down in self.planted(time).items() if down and name in self._feet)
                 planted.append(tuple(sorted(feet_down)))  # (a clip's hand contacts are not footsteps)
                 poses = {name: plant.EvalBodyPoseInWorld(context, foot) for name, foot in self._feet.items()}
+                if index == passes - 1:  # (the pass that has every frame)
+                    for name, pose in poses.items():
+                        lowest[name][frame] = pose.multiply(self._corners[name].T)[2].min()
                 anchors.append({name: pose.multiply(self.anchors[name])[:2] for name, pose in poses.items()})
                 down = [name for name in poses if name in planted[-1]]
                 soles = [poses[name].multiply(self._support[name])[:2].T for name in down]
                 supports.append(np.vstack(soles) if soles else None)
+        self._in_place = {
+            name: _lifted_in_place(self.contacts[name], heights)
+            for name, heights in lowest.items()
+            if name in self.contacts
+        }
         times, com = np.array(times), np.array(com)
         extra = times[-1] + np.arange(1, int(HOLD_AFTER * fps) + 1) / fps
         times, com = np.r_[times, extra], np.vstack([com, np.repeat(com[-1:], len(extra), axis=0)])

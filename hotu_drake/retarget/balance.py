@@ -45,6 +45,11 @@ GRAVITY = 9.81
 # centres of pressure jumped by 5-10 cm between frames, and 0.64-0.82 of them were inside (0.79-0.92 now).
 SMOOTHING = 0.1
 ON_FLOOR = 0.01  # m: a sole's contact point this close to the floor bears weight
+# On one foot its ankle holds the whole weight, from half as far as two ankles sharing it (`ankle_reach`), and
+# the support the balance pass keeps the pressure in reaches this share of that: the rest of the ankle's torque
+# is left to the controller. NAVIAI's leg_stretch (13 N m ankles), with the controller holding the lunge's back
+# foot on its toes: 4 of 4 starts stood at 0.8, 3 of 4 at 1.0, 1 of 4 with no single-foot limit.
+ANKLE_ALONE = 0.8
 
 
 class ClipBalance:
@@ -121,9 +126,11 @@ class ClipBalance:
         (T, K): every point of a foot the clip has planted, and any point
         of a sole on the floor (within `ON_FLOOR`: a toe still down as its
         heel rises to push off), and the smallest contact radius (m). With
-        `ankles_hold`, on frames with both feet planted each sole reaches
-        only `ankle_reach` ahead of and behind its ankle: the support the
-        ankles can hold the body over, not only the soles'."""
+        `ankles_hold`, each planted sole reaches only as far ahead of and
+        behind its ankle as the ankles can hold the body from: `ankle_reach`
+        on frames with both feet planted, `ANKLE_ALONE` of half that on
+        frames with one: the support the ankles can hold the body over, not
+        only the soles'."""
         reach = self.ankle_reach if ankles_hold else None
         frames = len(poses.positions)
         planted = {
@@ -134,16 +141,24 @@ class ClipBalance:
         points, down, radii = [], [], []
         for side in self.soles.feet:
             world, radius = self.soles.points_frames(poses, side)
-            if reach is not None and both.any():
-                link, local, _ = self.soles.feet[side]
-                held = local.copy()
-                held[:, 0] = np.clip(held[:, 0], -reach, reach)
-                within = poses.positions[:, link, None, :] + np.einsum("tij,kj->tki", poses.rotations[:, link], held)
-                world = np.where(both[:, None, None], within, world)
+            if reach is not None:
+                alone = planted[side] & ~both
+                for held_reach, held_frames in ((reach, both), (ANKLE_ALONE * reach / 2.0, alone)):
+                    if held_frames.any():
+                        within = self._within_reach(poses, side, held_reach)
+                        world = np.where(held_frames[:, None, None], within, world)
             points.append(world[..., :2])
             down.append(planted[side][:, None] | (world[..., 2] - radius < ON_FLOOR))
             radii.append(radius)
         return Support(np.concatenate(points, axis=1), np.concatenate(down, axis=1), float(np.concatenate(radii).min()))
+
+    def _within_reach(self, poses: Pose, side: str, reach: float) -> np.ndarray:
+        """The contact points (T, K, 3) of sole `side`, each kept within
+        `reach` (m) ahead of and behind its ankle (the foot's origin)."""
+        link, local, _ = self.soles.feet[side]
+        held = local.copy()
+        held[:, 0] = np.clip(held[:, 0], -reach, reach)
+        return poses.positions[:, link, None, :] + np.einsum("tij,kj->tki", poses.rotations[:, link], held)
 
     def support_margin(self, poses: Pose, pressure: np.ndarray, contacts: dict[str, np.ndarray]) -> np.ndarray:
         """Per frame, how far (m) the centre of pressure lies inside the

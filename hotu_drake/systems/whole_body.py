@@ -108,9 +108,10 @@ LANDING_DEPTH = 0.005  # m: a foot the clip has down that is not yet down is dra
 TOE_DOWN, TOE_BAND, TOE_PITCH, TOE_SWING = 0.005, 0.005, 0.01, 0.5
 # m: a foot the clip has down stands on its toes (held on that edge, as pushing off) where the clip has its sole
 # pitched over an edge on the floor with its other corners this much higher: the back foot of a lunge, its
-# heel up and its ball down (leg_stretch). Held flat there, the UDH fell in three starts of four (its ankles
-# asked 3.1x their limit); on its toes it stands in four (the other robots' counts unchanged). At 2-4 cm a
-# capture's rolling feet were held on their toes too (the UDH's Qualisys walk 0/4, 1/4 before; 2/4 at 6 cm).
+# heel up and its ball down (leg_stretch). Held flat there, NAVIAI falls in three starts of four, on its toes
+# in none (the UDH fell in three of four held flat before its clip kept the pressure within one ankle's reach on
+# one foot, `balance.ANKLE_ALONE`; now it and Walker stand either way). At 2-4 cm a capture's rolling feet were
+# held on their toes too (the UDH's Qualisys walk 0/4, 1/4 before; 2/4 at 6 cm).
 PLANTED_TOE_PITCH = 0.06
 # A foot the clip lifts flat (H1's: its leg cannot reach the floor at the person's push-off) pushes off
 # all the same for `PUSH_OFF_TIME` (s) after the clip lifts it (a 30 fps clip's first frame up) while the
@@ -446,30 +447,46 @@ class WholeBodyController(LeafSystem):
         H1's turning walk one start in eight). Held there, the trailing foot
         pushes the body on as a person's toes do while the other lands:
         without it H1 walked at 0.74-0.87 of the clip's pace, each landing
-        foot braking a body that nothing had pushed."""
+        foot braking a body that nothing had pushed. A foot the clip lifts in
+        place (`ClipPlan.lifted_in_place`: a lunge's back heel rising over its
+        toes) stays on its lowest edge through the whole lift: let go, NAVIAI
+        stood on its front foot alone with its body behind it and fell in
+        three starts of four (see `PLANTED_TOE_PITCH` for the heel held up)."""
         plant, reference, out = self._plant, self._reference, {}
         clip_planted = self.plan.planted(time)
         for name, down in clip_planted.items():
             sole = self._soles.get(name)
-            if sole is None or (not down and self.plan.swing_progress(name, time) >= TOE_SWING):
+            in_place = not down and self.plan.lifted_in_place(name, time)
+            if sole is None or (not down and not in_place and self.plan.swing_progress(name, time) >= TOE_SWING):
                 continue
             pose = plant.EvalBodyPoseInWorld(reference, sole.body)
             heights = pose.multiply(sole.corners.T)[2]
+            lowest_edge = heights < heights.min() + TOE_BAND
             if heights.min() < TOE_DOWN and np.ptp(heights) > (PLANTED_TOE_PITCH if down else TOE_PITCH):
-                out[name] = heights < heights.min() + TOE_BAND
+                out[name] = lowest_edge
                 continue
             if down:
                 continue
-            other_down = any(clip_planted.get(other) for other in self._soles if other != name)
-            if not other_down or self.plan.since_lifting(name, time) >= PUSH_OFF_TIME:
-                continue
-            self.plan.set_reference(self._nearby, time + self.plan.until_landing(name, time))
-            step = plant.EvalBodyPoseInWorld(self._nearby, sole.body).translation() - pose.translation()
-            way = (pose.rotation().inverse() @ np.append(step[:2], 0.0))[:2]  # in the sole's frame
-            if np.linalg.norm(way) >= PUSH_OFF_STEP:
-                along = sole.corners[:, :2] @ (way / np.linalg.norm(way))
-                out[name] = along > along.max() - PUSH_OFF_EDGE
+            edge = self._push_off_edge(name, time, clip_planted, sole, pose)
+            if edge is not None or in_place:
+                out[name] = lowest_edge if edge is None else edge
         return out
+
+    def _push_off_edge(self, name: str, time: float, clip_planted: dict, sole: Sole, pose) -> np.ndarray | None:
+        """The edge ((K,) bools) of the sole of foot `name` (at `pose` in the
+        reference) toward its next footstep, if the clip lifted it within
+        `PUSH_OFF_TIME` s with the other foot down and it is going at least
+        `PUSH_OFF_STEP` m (`pushing_off`)."""
+        other_down = any(clip_planted.get(other) for other in self._soles if other != name)
+        if not other_down or self.plan.since_lifting(name, time) >= PUSH_OFF_TIME:
+            return None
+        self.plan.set_reference(self._nearby, time + self.plan.until_landing(name, time))
+        step = self._plant.EvalBodyPoseInWorld(self._nearby, sole.body).translation() - pose.translation()
+        way = (pose.rotation().inverse() @ np.append(step[:2], 0.0))[:2]  # in the sole's frame
+        if np.linalg.norm(way) < PUSH_OFF_STEP:
+            return None
+        along = sole.corners[:, :2] @ (way / np.linalg.norm(way))
+        return along > along.max() - PUSH_OFF_EDGE
 
     def _catching(
         self, time: float, planted: dict[str, bool], pushing: dict[str, np.ndarray]
