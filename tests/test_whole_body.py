@@ -329,25 +329,35 @@ def test_a_foot_lifted_in_place_stays_on_its_toes(monkeypatch):
     """leg_stretch's labels lift the lunge's back foot as its heel rises and
     comes down (its ankle moving), though its toes stay on the floor: the
     plan knows those lifts as in place, and the controller keeps the foot on
-    its lowest edge through them. NAVIAI, two frames in, stands through the
+    its toes through them, past the first half of a lift where a walk's
+    push-off ends (`TOE_SWING`). NAVIAI, two frames in, stands through the
     clip without a catch step (from four starts: four up, measured); let go
     there it stands on its front foot alone, its body behind it, and falls
-    (2.9 s; three starts of four)."""
+    (2.9 s; three starts of four, all but the first frame's, which stands
+    either way since the balance pass keeps one foot's pressure within its
+    ankle's reach)."""
     from hotu_drake.physical import perform
 
     clip = library_clip("leg_stretch", "naviai", "none")
     controller = WholeBodyController(embodiment.load("naviai", "none"), clip, 1.0 / 60.0, loop=False)
+    plan, reference = controller.plan, controller._reference
     lifts = np.flatnonzero(~clip.contact("left_foot").astype(bool))
-    in_place = np.array([controller.plan.lifted_in_place("left_foot", frame / clip.fps) for frame in lifts])
+    in_place = np.array([plan.lifted_in_place("left_foot", frame / clip.fps) for frame in lifts])
     lunge = lifts / clip.fps < 3.2  # the heel up and down (1.27-1.67 s, 2.67-3.07 s); then the side lunge's steps
     assert lunge.sum() >= 20 and in_place[lunge].all() and not in_place[~lunge].any()
-    assert not any(controller.plan.lifted_in_place("right_foot", f / clip.fps) for f in range(clip.num_frames))
-    frame = int(lifts[lunge][len(lifts[lunge]) // 2])
-    controller.plan.set_reference(controller._reference, frame / clip.fps)
-    assert "left_foot" in controller.pushing_off(frame / clip.fps)
+    assert not any(plan.lifted_in_place("right_foot", f / clip.fps) for f in range(clip.num_frames))
+    late = [f for f in lifts[lunge] if plan.swing_progress("left_foot", f / clip.fps) >= whole_body.TOE_SWING]
+    assert len(late) >= 8
+
+    def pushing(frame: int) -> bool:
+        plan.set_reference(reference, frame / clip.fps)
+        return "left_foot" in controller.pushing_off(frame / clip.fps)
+
+    assert all(pushing(frame) for frame in late)
     report = perform(clip.slice(2, clip.num_frames)).report
     assert not report["fell"] and not report["catch_steps"], report["fell_at_s"]
     monkeypatch.setattr(ClipPlan, "lifted_in_place", lambda self, name, time: False)
+    assert not any(pushing(frame) for frame in late)
     assert perform(clip.slice(2, clip.num_frames)).report["fell"]
 
 

@@ -44,9 +44,11 @@ WEIGHT_SHIFT_LEAD_IN = 0.5
 # A clip's first frame is at rest (a lead-in may hold it) with no joint faster than this (rad/s) and its root
 # slower than this (m/s): held at rest, a clip caught mid-motion (H1's boxing 7-9 frames in) jumps to speed.
 AT_REST_JOINT_SPEED, AT_REST_ROOT_SPEED = 1.0, 0.3
-# m: a foot the clip lifts whose sole stays this near the floor over the whole lift (between two frames down)
-# is lifted in place: its heel rises and comes down over toes that stay down (`ClipPlan.lifted_in_place`).
-IN_PLACE_HEIGHT = 0.01
+# m: a foot the clip lifts whose sole stays this near the floor over the whole lift (between two frames down),
+# while at some frame of it one end of the sole is `IN_PLACE_TILT` higher than the other, is lifted in place:
+# its heel rises and comes down over toes that stay down (`ClipPlan.lifted_in_place`). A sole that only slides
+# flat across the floor is not.
+IN_PLACE_HEIGHT, IN_PLACE_TILT = 0.01, 0.01
 
 
 def pendulum_frequency(height: float) -> float:
@@ -138,18 +140,21 @@ def footstep_zmp(
     return zmp
 
 
-def _lifted_in_place(down: np.ndarray, lowest: np.ndarray) -> np.ndarray:
+def _lifted_in_place(down: np.ndarray, lowest: np.ndarray, highest: np.ndarray) -> np.ndarray:
     """The frames (T,) of each lift of a foot (`down` False between two
-    frames down) whose sole's lowest corner (`lowest`, m, per frame) stays
-    within `IN_PLACE_HEIGHT` of the floor over all of it."""
+    frames down: not one the clip starts or ends with, nor, in a loop, one
+    across its seam) whose sole's lowest corner (`lowest`, m, per frame)
+    stays within `IN_PLACE_HEIGHT` of the floor over all of it, its highest
+    (`highest`) rising `IN_PLACE_TILT` above it on some frame."""
     out = np.zeros(len(down), bool)
     start = None
     for frame, flag in enumerate([*down, True]):
         if not flag and start is None:
             start = frame
         elif flag and start is not None:
-            if start > 0 and frame < len(down) and lowest[start:frame].max() < IN_PLACE_HEIGHT:
-                out[start:frame] = True
+            lift = slice(start, frame)
+            if start > 0 and frame < len(down) and lowest[lift].max() < IN_PLACE_HEIGHT:
+                out[lift] = np.max(highest[lift] - lowest[lift]) > IN_PLACE_TILT
             start = None
     return out
 
@@ -399,7 +404,8 @@ class ClipPlan:
         clip, plant, fps = self.clip, self.plant, self.clip.fps
         passes = 3 if self.loop else 1
         times, com, planted, anchors, supports = [], [], [], [], []
-        lowest = {name: np.zeros(clip.num_frames) for name in self._feet}  # each sole's lowest corner (z: any pass)
+        # Each sole's lowest and highest corner (z: the same on any pass).
+        lowest, highest = ({name: np.zeros(clip.num_frames) for name in self._feet} for _ in range(2))
         for index in range(passes):
             for frame in range(clip.num_frames - (1 if index < passes - 1 else 0)):
                 time = index * self.period + frame / fps
@@ -411,14 +417,15 @@ class ClipPlan:
                 poses = {name: plant.EvalBodyPoseInWorld(context, foot) for name, foot in self._feet.items()}
                 if index == passes - 1:  # (the pass that has every frame)
                     for name, pose in poses.items():
-                        lowest[name][frame] = pose.multiply(self._corners[name].T)[2].min()
+                        heights = pose.multiply(self._corners[name].T)[2]
+                        lowest[name][frame], highest[name][frame] = heights.min(), heights.max()
                 anchors.append({name: pose.multiply(self.anchors[name])[:2] for name, pose in poses.items()})
                 down = [name for name in poses if name in planted[-1]]
                 soles = [poses[name].multiply(self._support[name])[:2].T for name in down]
                 supports.append(np.vstack(soles) if soles else None)
         self._in_place = {
-            name: _lifted_in_place(self.contacts[name], heights)
-            for name, heights in lowest.items()
+            name: _lifted_in_place(self.contacts[name], lowest[name], highest[name])
+            for name in lowest
             if name in self.contacts
         }
         times, com = np.array(times), np.array(com)

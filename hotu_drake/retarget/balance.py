@@ -45,10 +45,11 @@ GRAVITY = 9.81
 # centres of pressure jumped by 5-10 cm between frames, and 0.64-0.82 of them were inside (0.79-0.92 now).
 SMOOTHING = 0.1
 ON_FLOOR = 0.01  # m: a sole's contact point this close to the floor bears weight
-# On one foot its ankle holds the whole weight, from half as far as two ankles sharing it (`ankle_reach`), and
-# the support the balance pass keeps the pressure in reaches this share of that: the rest of the ankle's torque
-# is left to the controller. NAVIAI's leg_stretch (13 N m ankles), with the controller holding the lunge's back
-# foot on its toes: 4 of 4 starts stood at 0.8, 3 of 4 at 1.0, 1 of 4 with no single-foot limit.
+# With one foot planted its ankle may hold the whole weight (the other foot's toes, still on the floor as its
+# heel rises, may share it, but are not counted on), from half as far as two ankles sharing it (`ankle_reach`),
+# and the support the balance pass keeps the pressure in reaches this share of that: the rest of the ankle's
+# torque is left to the controller. NAVIAI's leg_stretch (13 N m ankles), with the controller holding the
+# lunge's back foot on its toes: 4 of 4 starts stood at 0.8, 3 of 4 at 1.0, 1 of 4 with no single-foot limit.
 ANKLE_ALONE = 0.8
 
 

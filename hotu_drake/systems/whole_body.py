@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from time import perf_counter
 
 import numpy as np
+from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, Context, DiagramBuilder, DiscreteValues, LeafSystem
@@ -449,7 +450,8 @@ class WholeBodyController(LeafSystem):
         without it H1 walked at 0.74-0.87 of the clip's pace, each landing
         foot braking a body that nothing had pushed. A foot the clip lifts in
         place (`ClipPlan.lifted_in_place`: a lunge's back heel rising over its
-        toes) stays on its lowest edge through the whole lift: let go, NAVIAI
+        toes) stays on its lowest edge (or, just lifted, an edge it pushes off
+        on) through the whole lift: let go, NAVIAI
         stood on its front foot alone with its body behind it and fell in
         three starts of four (see `PLANTED_TOE_PITCH` for the heel held up)."""
         plant, reference, out = self._plant, self._reference, {}
@@ -472,7 +474,9 @@ class WholeBodyController(LeafSystem):
                 out[name] = lowest_edge if edge is None else edge
         return out
 
-    def _push_off_edge(self, name: str, time: float, clip_planted: dict, sole: Sole, pose) -> np.ndarray | None:
+    def _push_off_edge(
+        self, name: str, time: float, clip_planted: dict[str, bool], sole: Sole, pose: RigidTransform
+    ) -> np.ndarray | None:
         """The edge ((K,) bools) of the sole of foot `name` (at `pose` in the
         reference) toward its next footstep, if the clip lifted it within
         `PUSH_OFF_TIME` s with the other foot down and it is going at least
