@@ -9,8 +9,9 @@ did: its states and key bodies (a `MotionClip` whose contacts are the feet
 the floor actually carried), the controller's actions, the torques the
 plant applied and the floor's force on each foot; and a report next to the
 clip: whether and when it fell (in the clip or in the `SETTLE` s after
-it, its last frame held), its travel against the clip's, joint and
-key-body RMS against the clip, the share of frames with a joint at its
+it, its last frame held), its travel against the clip's, how far from
+the clip's its pelvis ended (`end_offset_m`: a robot can stand through
+a clip and end far from it), joint and key-body RMS against the clip, the share of frames with a joint at its
 torque limit, the least margin of its centre of pressure inside the
 support of its loaded feet, the wall time (the diagram built, its
 lead-in and the clip's frames), the steps the controller took of its own
@@ -273,9 +274,11 @@ def _report(clip: MotionClip, performed: MotionClip, emb, torques: np.ndarray) -
     theirs = clip.key_body(pelvis) if has_pelvis else clip.root_position
     travel = np.linalg.norm(ours[-1, :2] - ours[0, :2])
     reference_travel = np.linalg.norm(theirs[done - 1, :2] - theirs[0, :2])
+    end_offset = np.linalg.norm(ours[-1, :2] - theirs[done - 1, :2])
     return {
         "root_travel_m": round(float(travel), 4),
         "reference_travel_m": round(float(reference_travel), 4),
+        "end_offset_m": round(float(end_offset), 4),
         "joint_rms_rad": round(joint_rms, 4),
         "key_body_rms_m": None if key_rms is None else round(key_rms, 4),
         "torque_saturation_share": round(float(np.mean(saturated.any(axis=1))), 4),

@@ -590,6 +590,27 @@ def test_retarget_physics_performs_each_robots_clip(tmp_path):
     assert not curi["fell"] and curi["least_pressure_margin_m"] is None and (out / "squat_curi_physical.npz").exists()
 
 
+def test_a_performance_that_ends_off_the_clip_says_how_far():
+    """A robot can stand through a clip and end far from it (NAVIAI's
+    leg_stretch, half a metre off): the report says how far its pelvis
+    ended from the clip's (`end_offset_m`), beside its key bodies' RMS."""
+    from hotu_drake.physical import _report
+
+    h1 = embodiment.load("h1", "none")
+    clip = library_clip("squat", "h1", "none")
+    torques = np.zeros((clip.num_frames, len(h1.effort_limits)))
+    itself = _report(clip, clip, h1, torques)
+    assert itself["end_offset_m"] == 0.0 and itself["key_body_rms_m"] == 0.0
+    moved = np.array([0.3, 0.4, 0.0])
+    off = dataclasses.replace(
+        clip, root_position=clip.root_position + moved, key_body_positions=clip.key_body_positions + moved
+    )
+    figures = _report(clip, off, h1, torques)
+    assert figures["end_offset_m"] == pytest.approx(0.5, abs=1e-4)
+    assert figures["key_body_rms_m"] == pytest.approx(0.5, abs=1e-4)
+    assert figures["root_travel_m"] == pytest.approx(itself["root_travel_m"], abs=1e-4)
+
+
 def test_bench_teacher_reports_the_walk_and_the_label_cost():
     """`bench teacher` (its figures are BENCHMARKS.md's, not a test's): the
     walk's real-time factor and the controller's and QP's shares, the label

@@ -6,7 +6,9 @@ many of the N it stood through): whether the robot stayed up (through
 the clip and `physical.SETTLE` s after it), its travel against the clip's, the
 share of frames with a joint at its torque limit, the steps the controller
 took of its own to catch the robot (per start; the table gives the starts
-that took any), and, for a robot that fell, what in the clip is past it
+that took any), how closely each start followed the clip (its key
+bodies' RMS from the clip's, and how far from the clip's end its pelvis
+ended), and, for a robot that fell, what in the clip is past it
 (`Performance.report["cannot"]`). The
 library walk looped for 10 s (`whole_body_walk_<robot>`) from several
 seeds (its start drawn 0-0.05 s into the clip): how many it walked, and
@@ -52,6 +54,9 @@ def perform_row(robot: str, motion: str, clip, starts: int = 1) -> dict:
         "up_starts": sum(fall is None for fall in falls),
         "fell_at_s_by_start": [None if fall is None else round(fall, 2) for fall in falls],
         "catch_steps_by_start": [len(each["catch_steps"]) for each in reports],
+        # How closely each start followed the clip (a start that stood may still have ended far from it).
+        "key_body_rms_m_by_start": [each["key_body_rms_m"] for each in reports],
+        "end_offset_m_by_start": [each["end_offset_m"] for each in reports],
     }
 
 
