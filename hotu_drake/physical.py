@@ -11,13 +11,13 @@ plant applied and the floor's force on each foot; and a report next to the
 clip: whether and when it fell (in the clip or in the `SETTLE` s after
 it, its last frame held), its travel against the clip's, how far from
 the clip's its pelvis ended (`end_offset_m`: a robot can stand through
-a clip and end far from it), joint and key-body RMS against the clip, the share of frames with a joint at its
-torque limit, the least margin of its centre of pressure inside the
-support of its loaded feet, the wall time (the diagram built, its
-lead-in and the clip's frames), the steps the controller took of its own
-to catch the robot, and for a robot
-that fell what in the clip is past it (`cannot`: a flight
-phase, a joint asked more than its torque limit).
+a clip and end far from it), joint and key-body RMS against the clip,
+the share of frames with a joint at its torque limit, the least margin
+of its centre of pressure inside the support of its loaded feet, the
+wall time (the diagram built, its lead-in and the clip's frames), the
+steps the controller took of its own to catch the robot, and for a robot
+that fell what in the clip is past it (`cannot`: a flight phase, a
+joint asked more than its torque limit).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hotu_drake.motion.clip import MotionClip
+from hotu_drake.motion.clip import MotionClip, lifts
 from hotu_drake.motion.playback import ClipPlayback
 from hotu_drake.rotations import matrix_to_quat
 
@@ -206,14 +206,11 @@ def demands_beyond(clip: MotionClip, emb, saturated: np.ndarray | None = None) -
     names = [name for name in ("left_foot", "right_foot") if name in clip.contact_names]
     if names:
         down = np.any([clip.contact(name).astype(bool) for name in names], axis=0)
-        flights, start = [], None
-        for frame, flag in enumerate([*down, True]):
-            if not flag and start is None:
-                start = frame
-            elif flag and start is not None:
-                if (frame - start) / clip.fps >= FLIGHT and start > 0:
-                    flights.append((start / clip.fps, (frame - start) / clip.fps))
-                start = None
+        flights = [
+            (start / clip.fps, (stop - start) / clip.fps)
+            for start, stop in lifts(down)
+            if start > 0 and (stop - start) / clip.fps >= FLIGHT
+        ]
         if flights:
             longest = max(seconds for _, seconds in flights)
             reasons.append(

@@ -21,7 +21,7 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from hotu_drake.control.whole_body_qp import feet_soles, sole_corners, soles_on_edges, soles_rolling_with_legs
 from hotu_drake.embodiment import Embodiment
-from hotu_drake.motion.clip import MotionClip
+from hotu_drake.motion.clip import MotionClip, lifts
 from hotu_drake.motion.playback import ClipPlayback
 from hotu_drake.motion.synthesis import smooth
 from hotu_drake.rotations import heading_yaw, quat_to_matrix, rot_z
@@ -147,15 +147,10 @@ def _lifted_in_place(down: np.ndarray, lowest: np.ndarray, highest: np.ndarray) 
     stays within `IN_PLACE_HEIGHT` of the floor over all of it, its highest
     (`highest`) rising `IN_PLACE_TILT` above it on some frame."""
     out = np.zeros(len(down), bool)
-    start = None
-    for frame, flag in enumerate([*down, True]):
-        if not flag and start is None:
-            start = frame
-        elif flag and start is not None:
-            lift = slice(start, frame)
-            if start > 0 and frame < len(down) and lowest[lift].max() < IN_PLACE_HEIGHT:
-                out[lift] = np.max(highest[lift] - lowest[lift]) > IN_PLACE_TILT
-            start = None
+    for start, stop in lifts(down):
+        lift = slice(start, stop)
+        if start > 0 and stop < len(down) and lowest[lift].max() < IN_PLACE_HEIGHT:
+            out[lift] = np.max(highest[lift] - lowest[lift]) > IN_PLACE_TILT
     return out
 
 

@@ -90,6 +90,20 @@ def _flags(arrays: dict, key: str, path: Path) -> np.ndarray:
     return value.astype(bool, copy=False)
 
 
+def lifts(down: np.ndarray) -> list[tuple[int, int]]:
+    """The (start, stop) frames of each run of `down` (T,) bools that is
+    False: a foot's lifts, or, of all feet together, the frames with none
+    down (a run to the clip's end stops at T)."""
+    out, start = [], None
+    for frame, flag in enumerate([*down, True]):
+        if not flag and start is None:
+            start = frame
+        elif flag and start is not None:
+            out.append((start, frame))
+            start = None
+    return out
+
+
 @dataclass
 class MotionClip:
     """A motion of one embodiment, sampled at `fps`."""

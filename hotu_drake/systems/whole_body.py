@@ -451,9 +451,9 @@ class WholeBodyController(LeafSystem):
         foot braking a body that nothing had pushed. A foot the clip lifts in
         place (`ClipPlan.lifted_in_place`: a lunge's back heel rising over its
         toes) stays on its lowest edge (or, just lifted, an edge it pushes off
-        on) through the whole lift: let go, NAVIAI
-        stood on its front foot alone with its body behind it and fell in
-        three starts of four (see `PLANTED_TOE_PITCH` for the heel held up)."""
+        on) through the whole lift: let go, NAVIAI stood on its front foot
+        alone with its body behind it and fell in three starts of four (see
+        `PLANTED_TOE_PITCH` for the heel held up)."""
         plant, reference, out = self._plant, self._reference, {}
         clip_planted = self.plan.planted(time)
         for name, down in clip_planted.items():
