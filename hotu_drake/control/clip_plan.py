@@ -309,10 +309,10 @@ class ClipPlan:
 
     def planted(self, time: float) -> dict[str, bool]:
         """Per contact name (`left_foot`, `right_foot`), whether the clip has that foot down at `time`."""
-        frame = self._frame(time)
+        frame = self.frame(time)
         return {name: bool(flags[frame]) for name, flags in self.contacts.items()}
 
-    def _frame(self, time: float) -> int:
+    def frame(self, time: float) -> int:
         """The clip's frame nearest `time` (within its pass of a loop); a time
         halfway between two frames (every other step of a 60 Hz controller on
         a 30 fps clip) takes the later, whatever its last bits: Python's round
@@ -336,7 +336,7 @@ class ClipPlan:
         down). A loop's swing may span the seam between passes; a clip that
         does not loop holds its last frame, so a foot up at its end stays
         short of 1."""
-        flags, frame = self.contacts[name], self._frame(time)
+        flags, frame = self.contacts[name], self.frame(time)
         if flags[frame]:
             return 1.0
         lifted = self._frames_since_down(flags, frame)
@@ -348,12 +348,12 @@ class ClipPlan:
         its heel rising over its toes and coming down again (the library's
         contacts end as the ankle moves, `generate._foot_contacts`)."""
         flags = self._in_place.get(name)
-        return flags is not None and bool(flags[self._frame(time)])
+        return flags is not None and bool(flags[self.frame(time)])
 
     def since_lifting(self, name: str, time: float) -> float:
         """Seconds from the clip's last frame with foot `name` down to `time`
         (0 while it is down; a loop's swing may span the seam between passes)."""
-        flags, frame = self.contacts[name], self._frame(time)
+        flags, frame = self.contacts[name], self.frame(time)
         return 0.0 if flags[frame] else self._frames_since_down(flags, frame) / self.clip.fps
 
     def _frames_since_down(self, flags: np.ndarray, frame: int) -> int:
@@ -369,7 +369,7 @@ class ClipPlan:
         """Seconds from `time` until the clip next lifts foot `name` (0 while
         it is up; a loop's next pass counts; infinite if it never does, as in
         a clip that has ended)."""
-        flags, frame = self.contacts[name], self._frame(time)
+        flags, frame = self.contacts[name], self.frame(time)
         if not flags[frame]:
             return 0.0
         if not self.loop and time >= self.period:
@@ -385,7 +385,7 @@ class ClipPlan:
         """Seconds from `time` until the clip next has foot `name` down (0
         while it is down; a loop's next pass counts, an ended clip holds its
         last frame)."""
-        return self._frames_to_landing(self.contacts[name], self._frame(time)) / self.clip.fps
+        return self._frames_to_landing(self.contacts[name], self.frame(time)) / self.clip.fps
 
     # --- the centre of mass --------------------------------------------------------
 

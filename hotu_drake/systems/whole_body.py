@@ -60,6 +60,7 @@ from hotu_drake.embodiment.actions import ActionScaling
 from hotu_drake.embodiment.spec import SIDES
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.plant import actuated_joint_order, actuated_state_indices, set_robot_state
+from hotu_drake.retarget.balance import TorqueDemand
 
 
 @dataclass
@@ -137,6 +138,20 @@ LINE_FOOTING_EASING = 0.1
 # from ten starts, 8/10 before) and its looped walk 10 of 10 seeds (5 of 6); none (0.0) lost its walks (1/4),
 # 0.3 its fast walk (1/4), 0.7 its fast walk 2/4. On every robot: H1's box carry and left turn 3/4 (4/4).
 SWING_LEG_POSTURE = 0.5
+# A planted foot's leg joints hold the clip's posture at this share of the posture's weight on the frames where
+# the clip's own inverse dynamics (`TorqueDemand`) asks a joint of that leg for more than its torque limit: the
+# leg cannot move as the clip's does there, and where its foot stands and where the body goes (the CoM's and the
+# pelvis' tasks) place it. NAVIAI's leg_stretch bends the front knee to lift the foot 0.1 s before its label
+# lets the foot go, its hip and ankles asked 1.3-5.8 times their limits: at the full weight the QP took the
+# weight off that foot to bend it (the CoM asked back at 0.5 m/s^2, predicted forward at 2.6), the body stayed
+# over the back foot's toes, and the return step landed 0.35 m ahead to catch it: every start stood, but ended
+# 0.43-0.57 m from the clip's end (0.13-0.35 m now). Eased on every planted frame instead, NAVIAI ended 0.08-0.32
+# m off, but the UDH's leg_stretch 0.13-0.29 (0.01-0.03), H1 fell in its looped walk (1 seed of 6) and its left
+# turn (1 start of 4); eased only on two feet, or only in the 0.25 s before a lift, NAVIAI still ended 0.42-0.47
+# m off and fell once. None (0.0, eased everywhere): NAVIAI fell from every start; 0.3: one start 0.46 m off.
+# Not on line feet: BRUCE's clips ask past a leg's limit on under 1% of their frames, and easing those lost its
+# fast walk two starts of four (BENCHMARKS.md, sixteenth session).
+PLANTED_LEG_POSTURE = 0.1
 LEG_PARTS = ("hip", "knee", "ankle")
 
 
@@ -210,15 +225,27 @@ class WholeBodyController(LeafSystem):
         self._line_soles = {name: sole.is_line for name, sole in self._soles.items()}
         on_lines = bool(self._soles) and all(self._line_soles.values())
         self._footing_easing = LINE_FOOTING_EASING if on_lines else FOOTING_EASING
-        # On line feet, each foot's leg: its side's hip, knee and ankle (the posture's rows eased as it swings).
+        self._on_lines = on_lines
+        # Each foot's leg: its side's hip, knee and ankle (the posture's rows eased as it stands, and on line feet
+        # as it swings).
         joints = embodiment.spec.joints
         self._leg_joints = {
             name: np.array([j for j, joint in enumerate(joints) if joint.part in LEG_PARTS and joint.side == side], int)
-            for name in (self._soles if on_lines else {})
+            for name in self._soles
             for side in [name.removesuffix("_foot")]
         }
         if not all(len(leg) for leg in self._leg_joints.values()):
             raise RuntimeError(f"{embodiment.name}: a foot with no hip, knee or ankle joint on its side")
+        # Per foot, per frame: whether the clip's own inverse dynamics asks a joint of that foot's leg for more
+        # than its torque limit (`PLANTED_LEG_POSTURE`).
+        self._leg_past_limits = {}
+        if self._soles:
+            sides = {name.removesuffix("_foot"): flags for name, flags in self.plan.contacts.items()}
+            past = TorqueDemand(embodiment).ratios(clip, sides) > 1.0
+            self._leg_past_limits = {
+                name: past[:, joints].any(axis=1) & (not self._line_soles[name])
+                for name, joints in self._leg_joints.items()
+            }
         # Soles that stand on an edge as their legs lean sideways (`contacts`).
         self._rolls_on_edges = soles_on_edges(self._roll_follows_leg, self._soles)
         self.qp = WholeBodyQp(plant, self._soles, embodiment.effort_limits)
@@ -610,8 +637,12 @@ class WholeBodyController(LeafSystem):
             + _damping(stiffness) * (v_reference[velocities] - v[velocities])
         )
         weight = np.full(len(positions), gains.posture_weight)
+        frame = self.plan.frame(time)
         for name, joints in self._leg_joints.items():
-            if not planted.get(name):
+            if planted.get(name):
+                if self._leg_past_limits[name][frame]:
+                    weight[joints] *= PLANTED_LEG_POSTURE
+            elif self._on_lines:
                 weight[joints] *= SWING_LEG_POSTURE
         tasks.append(Task(self._joint_rows, np.zeros(len(positions)), posture, weight))
         return tasks
