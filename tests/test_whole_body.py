@@ -734,16 +734,17 @@ def test_bench_performs_and_pushes_report_falls_per_robot_and_motion():
     assert performs.returncode == 0, performs.stderr
     (row,) = json.loads(performs.stdout)["rows"]
     assert row["robot"] == "curi" and row["motion"] == "wave" and row["up"] and row["cannot"] == []
-    assert row["starts"] == 1 and row["up_starts"] == 1
+    assert row["starts"] == 1 and row["up_starts"] == 1 and row["hands"] == "none"
     starts = subprocess.run(
-        [*command, "performs", "--robots", "curi", "--motions", "wave", "--seeds", "0", "--starts", "2", "--markdown"],
+        [*command, "performs", "--robots", "curi", "--motions", "wave", "--seeds", "0", "--starts", "2", "--markdown"]
+        + ["--hands", "full"],
         capture_output=True,
         text=True,
         timeout=300,
     )
     assert starts.returncode == 0, starts.stderr
     (row,) = json.loads(starts.stdout)["rows"]
-    assert row["up_starts"] == 2 and row["fell_at_s_by_start"] == [None, None]
+    assert row["up_starts"] == 2 and row["fell_at_s_by_start"] == [None, None] and row["hands"] == "full"
     assert "| wave | 2/2 |" in starts.stderr
     pushes = subprocess.run(
         [*command, "pushes", "--robots", "walker", "--momenta", "0", "--markdown"],

@@ -16,7 +16,7 @@ python -m hotu_drake.bench clips    [--motions M ...] [--input FILE ...] [--robo
 python -m hotu_drake.bench teacher  [--robot NAME] [--seconds S] [--queries N]
 python -m hotu_drake.bench pushes   [--robots NAME ...] [--momenta KG_M_S ...] [--markdown]
 python -m hotu_drake.bench performs [--robots NAME ...] [--motions M ...] [--input FILE ...] [--seeds N]
-                                    [--starts N] [--markdown]
+                                    [--starts N] [--hands full|none] [--markdown]
 """
 
 import json
@@ -352,18 +352,20 @@ def _performs(args) -> int:
     check_number(args.seeds, "--seeds", low=0, high=100, integer=True)
     check_number(args.starts, "--starts", low=1, high=30, integer=True)
     options = RetargetOptions(pace=args.pace)
-    captures = {Path(path).stem: retarget_onto(load_motion(path), args.robots, "none", options) for path in args.input}
+    captures = {
+        Path(path).stem: retarget_onto(load_motion(path), args.robots, args.hands, options) for path in args.input
+    }
     pin_to_one_core()
     rows = []
     for robot in args.robots:
-        clips = {motion: library_clip(motion, robot, "none", args.pace) for motion in args.motions}
+        clips = {motion: library_clip(motion, robot, args.hands, args.pace) for motion in args.motions}
         clips |= {stem: stages[robot].clip for stem, stages in captures.items()}
         for motion, clip in clips.items():
             rows.append(perform_row(robot, motion, clip, args.starts))
             print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
         if args.seeds and embodiment.load(robot, "none").floating_base:
-            walk = None if args.pace == "auto" else library_clip("walk", robot, "none", args.pace)
-            rows.append(looped_walk_row(robot, args.seeds, walk))
+            walk = None if args.pace == "auto" else library_clip("walk", robot, args.hands, args.pace)
+            rows.append(looped_walk_row(robot, args.seeds, walk, args.hands))
             print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
     if args.markdown:
         print(performs_markdown(rows, args.robots), file=sys.stderr, flush=True)
@@ -520,6 +522,9 @@ def main(argv: list[str] | None = None) -> int:
         "--starts", type=int, default=1, help="perform each motion from its first N frames (the table: up of N)"
     )
     performs.add_argument("--pace", choices=PACES, default="auto", help="the clips' timing (`RetargetOptions.pace`)")
+    performs.add_argument(
+        "--hands", choices=embodiment.HANDS_VARIANTS, default="none", help="the robots' hands (`retarget --hands`)"
+    )
     performs.add_argument("--markdown", action="store_true", help="also print a Markdown table on stderr")
     args = parser.parse_args(argv)
     if args.command == "performs":

@@ -14,7 +14,8 @@ library walk looped for 10 s (`whole_body_walk_<robot>`) from several
 seeds (its start drawn 0-0.05 s into the clip): how many it walked, and
 its travel against the clip's. A capture (`--input`, a BVH or C3D)
 retargeted and performed once. `--pace`: the clips' timing
-(`RetargetOptions.pace`; the looped walk's too).
+(`RetargetOptions.pace`; the looped walk's too); `--hands`: the robots'
+hands (none by default, as the figures in BENCHMARKS.md).
 """
 
 from __future__ import annotations
@@ -41,6 +42,7 @@ def perform_row(robot: str, motion: str, clip, starts: int = 1) -> dict:
     return {
         "robot": robot,
         "motion": motion,
+        "hands": hands,
         "up": not report["fell"],
         "fell_at_s": report["fell_at_s"],
         "seconds": round(clip.duration, 2),
@@ -60,10 +62,10 @@ def perform_row(robot: str, motion: str, clip, starts: int = 1) -> dict:
     }
 
 
-def looped_walk_row(robot: str, seeds: int, walk: MotionClip | None = None) -> dict:
-    """`whole_body_walk_<robot>` (10 s) from `seeds` seeds: the walks, their
-    travel ratios and fall times; tracking `walk` instead of the library's
-    walk if given (the walk at another pace)."""
+def looped_walk_row(robot: str, seeds: int, walk: MotionClip | None = None, hands: str = "none") -> dict:
+    """`whole_body_walk_<robot>` (10 s) from `seeds` seeds, the robot with
+    `hands`: the walks, their travel ratios and fall times; tracking `walk`
+    instead of the library's walk if given (the walk at another pace)."""
     from hotu_drake.diagrams import run_scenario
     from hotu_drake.scenario import load_scenario
 
@@ -73,7 +75,7 @@ def looped_walk_row(robot: str, seeds: int, walk: MotionClip | None = None) -> d
             walk.save(Path(folder) / "walk.npz")
         for seed in range(seeds):
             scenario = load_scenario(f"whole_body_walk_{robot}")
-            scenario.seed = seed
+            scenario.seed, scenario.hands = seed, hands
             if walk is not None:
                 scenario.driver.motion = str(Path(folder) / "walk.npz")
             figures = run_scenario(scenario)
@@ -84,6 +86,7 @@ def looped_walk_row(robot: str, seeds: int, walk: MotionClip | None = None) -> d
     return {
         "robot": robot,
         "motion": "walk (looped, 10 s)",
+        "hands": hands,
         "walked": seeds - len(falls),
         "seeds": seeds,
         "travel_ratio_range": [min(walked), max(walked)] if walked else None,
