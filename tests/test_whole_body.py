@@ -335,7 +335,7 @@ def test_a_planted_leg_the_clip_asks_past_its_limits_is_left_to_its_foot_and_bod
     for more than its limit, that leg's posture rows weigh
     `PLANTED_LEG_POSTURE` of the others': NAVIAI's leg_stretch, as it bends
     the front knee to lift the foot with both feet still down (3.2 s: its
-    hip and ankles 2-6 times their limits), and not as it stands at its
+    hip and ankles 1.3-5.8 times their limits), and not as it stands at its
     first frame. On line feet (BRUCE) the posture stays whole."""
     clip = library_clip("leg_stretch", "naviai", "none")
     controller = WholeBodyController(embodiment.load("naviai", "none"), clip, 1.0 / 60.0, loop=False)

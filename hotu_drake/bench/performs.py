@@ -23,6 +23,8 @@ from __future__ import annotations
 import tempfile
 from pathlib import Path
 
+from hotu_drake import embodiment
+from hotu_drake.embodiment.spec import FINGER_PART
 from hotu_drake.motion.clip import MotionClip
 
 
@@ -70,6 +72,7 @@ def looped_walk_row(robot: str, seeds: int, walk: MotionClip | None = None, hand
     from hotu_drake.scenario import load_scenario
 
     ratios, falls = [], []
+    fingers = any(joint.part == FINGER_PART for joint in embodiment.load(robot, hands).spec.joints)
     with tempfile.TemporaryDirectory() as folder:
         if walk is not None:
             walk.save(Path(folder) / "walk.npz")
@@ -86,7 +89,7 @@ def looped_walk_row(robot: str, seeds: int, walk: MotionClip | None = None, hand
     return {
         "robot": robot,
         "motion": "walk (looped, 10 s)",
-        "hands": hands,
+        "hands": hands if fingers else "none",
         "walked": seeds - len(falls),
         "seeds": seeds,
         "travel_ratio_range": [min(walked), max(walked)] if walked else None,

@@ -226,8 +226,8 @@ class WholeBodyController(LeafSystem):
         on_lines = bool(self._soles) and all(self._line_soles.values())
         self._footing_easing = LINE_FOOTING_EASING if on_lines else FOOTING_EASING
         self._on_lines = on_lines
-        # Each foot's leg: its side's hip, knee and ankle (the posture's rows eased as it stands, and on line feet
-        # as it swings).
+        # Each foot's leg: its side's hip, knee and ankle (the posture's rows eased while it stands where the clip
+        # asks it past a torque limit, and on line feet as it swings).
         joints = embodiment.spec.joints
         self._leg_joints = {
             name: np.array([j for j, joint in enumerate(joints) if joint.part in LEG_PARTS and joint.side == side], int)
@@ -236,10 +236,11 @@ class WholeBodyController(LeafSystem):
         }
         if not all(len(leg) for leg in self._leg_joints.values()):
             raise RuntimeError(f"{embodiment.name}: a foot with no hip, knee or ankle joint on its side")
-        # Per foot, per frame: whether the clip's own inverse dynamics asks a joint of that foot's leg for more
-        # than its torque limit (`PLANTED_LEG_POSTURE`).
-        self._leg_past_limits = {}
-        if self._soles:
+        # Per foot, per frame: whether the clip's own inverse dynamics (with the clip's contacts, not the
+        # controller's) asks a joint of that foot's leg for more than its torque limit (`PLANTED_LEG_POSTURE`;
+        # never on line feet).
+        self._leg_past_limits = {name: np.zeros(clip.num_frames, bool) for name in self._soles}
+        if self._soles and not all(self._line_soles.values()):
             sides = {name.removesuffix("_foot"): flags for name, flags in self.plan.contacts.items()}
             past = TorqueDemand(embodiment).ratios(clip, sides) > 1.0
             self._leg_past_limits = {
