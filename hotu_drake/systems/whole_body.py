@@ -240,13 +240,11 @@ class WholeBodyController(LeafSystem):
         # controller's) asks a joint of that foot's leg for more than its torque limit (`PLANTED_LEG_POSTURE`;
         # never on line feet).
         self._leg_past_limits = {name: np.zeros(clip.num_frames, bool) for name in self._soles}
-        if self._soles and not all(self._line_soles.values()):
+        flat = [name for name, line in self._line_soles.items() if not line]
+        if flat:
             sides = {name.removesuffix("_foot"): flags for name, flags in self.plan.contacts.items()}
             past = TorqueDemand(embodiment).ratios(clip, sides) > 1.0
-            self._leg_past_limits = {
-                name: past[:, joints].any(axis=1) & (not self._line_soles[name])
-                for name, joints in self._leg_joints.items()
-            }
+            self._leg_past_limits |= {name: past[:, self._leg_joints[name]].any(axis=1) for name in flat}
         # Soles that stand on an edge as their legs lean sideways (`contacts`).
         self._rolls_on_edges = soles_on_edges(self._roll_follows_leg, self._soles)
         self.qp = WholeBodyQp(plant, self._soles, embodiment.effort_limits)
