@@ -201,6 +201,7 @@ def demands_beyond(clip: MotionClip, emb, saturated: np.ndarray | None = None) -
     inverse dynamics (`retarget.balance.TorqueDemand`) also asks more than
     its limit of. Empty: nothing found in the clip that the robot cannot do."""
     from hotu_drake.retarget.balance import TorqueDemand
+    from hotu_drake.retarget.retargeter import foot_contacts_of
 
     reasons = []
     names = [name for name in ("left_foot", "right_foot") if name in clip.contact_names]
@@ -217,10 +218,9 @@ def demands_beyond(clip: MotionClip, emb, saturated: np.ndarray | None = None) -
                 f"flight: {len(flights)} phase{'s' if len(flights) > 1 else ''} with no foot down, the first at "
                 f"{flights[0][0]:.2f} s, the longest {longest:.2f} s (a jump; the controller plans no flight phase)"
             )
-    contacts = {name.removesuffix("_foot"): clip.contact(name).astype(bool) for name in names}
     if saturated is None:
         return reasons
-    ratios = TorqueDemand(emb).ratios(clip, contacts)
+    ratios = TorqueDemand(emb).ratios(clip, foot_contacts_of(clip, clip.num_frames))
     for j in np.argsort(-saturated):
         if saturated[j] < OVER_LIMIT:
             break

@@ -521,13 +521,17 @@ class TorqueDemand:
     base's share carried by the planted feet (the least contact wrenches,
     at each sole's centre, that do so), compared with the effort limits."""
 
-    def __init__(self, emb: Embodiment):
+    def __init__(self, emb: Embodiment, plant=None, model=None):
+        """On `plant` (a finalized `MultibodyPlant` holding `emb` as `model`,
+        its only model: a controller's), or on a plant of its own."""
         from pydrake.multibody.plant import MultibodyPlant
 
         self.emb = emb
-        self.plant = plant = MultibodyPlant(0.0)
-        self.model = emb.add_to_plant(plant, builtin_pd=False)
-        plant.Finalize()
+        if plant is None:
+            plant = MultibodyPlant(0.0)
+            model = emb.add_to_plant(plant, builtin_pd=False)
+            plant.Finalize()
+        self.plant, self.model = plant, model
         self.context = plant.CreateDefaultContext()
         self.floating = emb.floating_base
         self.columns = [plant.GetJointByName(n, self.model).position_start() for n in emb.joint_names]

@@ -61,6 +61,7 @@ from hotu_drake.embodiment.spec import SIDES
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.plant import actuated_joint_order, actuated_state_indices, set_robot_state
 from hotu_drake.retarget.balance import TorqueDemand
+from hotu_drake.retarget.retargeter import foot_contacts_of
 
 
 @dataclass
@@ -242,8 +243,8 @@ class WholeBodyController(LeafSystem):
         self._leg_past_limits = {name: np.zeros(clip.num_frames, bool) for name in self._soles}
         flat = [name for name, line in self._line_soles.items() if not line]
         if flat:
-            sides = {name.removesuffix("_foot"): flags for name, flags in self.plan.contacts.items()}
-            past = TorqueDemand(embodiment).ratios(clip, sides) > 1.0
+            demand = TorqueDemand(embodiment, plant, self._model)
+            past = demand.ratios(clip, foot_contacts_of(clip, clip.num_frames)) > 1.0
             self._leg_past_limits |= {name: past[:, self._leg_joints[name]].any(axis=1) for name in flat}
         # Soles that stand on an edge as their legs lean sideways (`contacts`).
         self._rolls_on_edges = soles_on_edges(self._roll_follows_leg, self._soles)
