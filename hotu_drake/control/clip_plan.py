@@ -34,6 +34,9 @@ SHIFT_TIME = 0.3  # s: how long the planned pressure takes to move between a sta
 NOMINAL_RATE = 240.0  # Hz: the plan's nominal CoM sampled this often, interpolated between
 SUPPORT_SHRINK = 0.5  # the support the plan keeps the pressure in: the soles shrunk this much toward their anchors
 HALF_FRAME_SLACK = 1e-6  # frames: a clip time this near a half frame counts as on it
+# `ClipPlan.velocities` keeps this many times' velocities: a control step asks for its own time and half a
+# frame either side (its reference's accelerations), and the next step asks for two of those again.
+VELOCITY_CACHE = 8
 # s: a robot standing on flat soles that roll only as its legs lean (H1: no ankle roll) holds a clip's first
 # frame this long before the clip moves, so that the plan's preview shifts its weight toward the first
 # stance foot before the clip lifts the other (`lead_in_for`). With both soles flat its legs cannot lean:
@@ -234,6 +237,7 @@ class ClipPlan:
             turn = rot_z(float(heading_yaw(ends[1]) - heading_yaw(ends[0])))
             shift = clip.root_position[-1] - turn @ clip.root_position[0]
             self._step = Planar(turn, np.array([shift[0], shift[1], 0.0]))
+        self._velocity_cache: dict[float, np.ndarray] = {}  # `velocities` at the last few times asked
         self.contacts = {name: clip.contact(name).astype(bool) for name in clip.contact_names}
         self._placements = [Planar()]  # `placement` of each pass so far
         self._feet = {
@@ -286,7 +290,7 @@ class ClipPlan:
         self.plant.SetVelocities(context, velocities)
         if not self.embodiment.floating_base:
             return
-        quaternion, position, _, _ = self.playback.root_at(clip_time)
+        quaternion, position = self.playback.root_pose_at(clip_time)
         placement = self.placement(index)
         pose = RigidTransform(RotationMatrix(placement.rotation), placement.shift)
         self.plant.SetFreeBodyPose(context, self._root, pose @ RigidTransform(Quaternion(quaternion), position))
@@ -294,17 +298,25 @@ class ClipPlan:
     def velocities(self, time: float) -> np.ndarray:
         """The plant's generalized velocities in the clip's state at `time`
         (those `set_reference` sets, with no context to set: the floating
-        root's angular then linear velocity in the world, then the joints')."""
+        root's angular then linear velocity in the world, then the joints'),
+        read-only: the controller asks for each time three times over its
+        steps (`VELOCITY_CACHE`)."""
+        cached = self._velocity_cache.get(time)
+        if cached is not None:
+            return cached
         index, clip_time = self.pass_at(time)
         out = np.zeros(self.plant.num_velocities())
-        if not self.loop and time >= self.period:  # a clip that has ended holds its last pose, at rest
-            return out
-        out[self._joint_velocities] = self.playback.lerp(self.clip.joint_velocities, clip_time)
-        if len(self._root_velocities):
-            turn = self.placement(index).rotation
-            omega = self.playback.lerp(self.clip.root_angular_velocity, clip_time)
-            linear = self.playback.lerp(self.clip.root_linear_velocity, clip_time)
-            out[self._root_velocities] = np.r_[turn @ omega, turn @ linear]
+        if self.loop or time < self.period:  # a clip that has ended holds its last pose, at rest
+            out[self._joint_velocities] = self.playback.lerp(self.clip.joint_velocities, clip_time)
+            if len(self._root_velocities):
+                turn = self.placement(index).rotation
+                omega = self.playback.lerp(self.clip.root_angular_velocity, clip_time)
+                linear = self.playback.lerp(self.clip.root_linear_velocity, clip_time)
+                out[self._root_velocities] = np.concatenate([turn @ omega, turn @ linear])
+        out.flags.writeable = False
+        if len(self._velocity_cache) >= VELOCITY_CACHE:
+            del self._velocity_cache[next(iter(self._velocity_cache))]
+        self._velocity_cache[time] = out
         return out
 
     def planted(self, time: float) -> dict[str, bool]:

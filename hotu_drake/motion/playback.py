@@ -40,16 +40,20 @@ class ClipPlayback:
         """Joint positions and velocities at `time` (the clip's joint order)."""
         return self.lerp(self.clip.joint_positions, time), self.lerp(self.clip.joint_velocities, time)
 
-    def root_at(self, time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Root quaternion (w x y z), position, angular and linear velocity (world) at `time`."""
+    def root_pose_at(self, time: float) -> tuple[np.ndarray, np.ndarray]:
+        """Root quaternion (w x y z) and position (world) at `time`."""
         clip = self.clip
         a, b, w = self.frame_at(time)
         qa, qb = clip.root_quaternion[a], clip.root_quaternion[b]
         quaternion = (1.0 - w) * qa + w * (qb if np.dot(qa, qb) >= 0 else -qb)
         quaternion /= np.linalg.norm(quaternion)
-        position = self.lerp(clip.root_position, time)
-        omega = self.lerp(clip.root_angular_velocity, time)
-        linear = self.lerp(clip.root_linear_velocity, time)
+        return quaternion, (1.0 - w) * clip.root_position[a] + w * clip.root_position[b]
+
+    def root_at(self, time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Root quaternion (w x y z), position, angular and linear velocity (world) at `time`."""
+        quaternion, position = self.root_pose_at(time)
+        omega = self.lerp(self.clip.root_angular_velocity, time)
+        linear = self.lerp(self.clip.root_linear_velocity, time)
         return quaternion, position, omega, linear
 
     def key_bodies_at(self, time: float) -> np.ndarray:
