@@ -17,7 +17,9 @@ of its centre of pressure inside the support of its loaded feet, the
 wall time (the diagram built, its lead-in and the clip's frames), the
 steps the controller took of its own to catch the robot, and for a robot
 that fell what in the clip is past it (`cannot`: a flight phase, a
-joint asked more than its torque limit).
+joint asked more than its torque limit) and when and where it lost its
+balance (`lost_balance`: its capture point gone from its loaded soles for
+good, whatever the clip asked).
 """
 
 from __future__ import annotations
@@ -40,6 +42,7 @@ FLIGHT = 0.1  # s: no foot down for this long is a flight phase (a jump), which 
 # (H1 stopping in start_stop, 4 starts of 10) stood through the clip and fell just after it.
 SETTLE = 1.0
 OVER_LIMIT = 0.05  # a joint the clip asks more than its limit of on this share of its frames is past what it can do
+LOST = 0.02  # m: a capture point this far outside the loaded soles (or over none) is beyond what they can push back
 
 
 @dataclass
@@ -106,10 +109,9 @@ def perform(
     joints = [plant.GetJointByName(name, model) for name in emb.joint_names]
     frames = clip.num_frames
     held = controller.plan.clip.num_frames - frames  # the lead-in's frames, before the clip's
-    record = {
-        name: [] for name in ("q", "root_p", "root_q", "keys", "actions", "torques", "forces", "pressure", "corners")
-    }
+    record = {name: [] for name in ("q", "root_p", "root_q", "keys", "actions", "torques", "forces", "pressure")}
     sole_bodies = [plant.GetBodyByName(sole.body.name(), model) for sole in soles.values()]
+    balance = _BalanceTrace(plant, context, model, root, feet, sides, sole_bodies, soles, weight)
     fell_at, checked = None, 0
     for frame in range(-held, frames):
         sim.simulator.AdvanceTo((held + frame) / clip.fps)
@@ -129,15 +131,7 @@ def perform(
         forces, pressure = _floor_forces(plant, context, feet, len(sides))
         record["forces"].append(forces)
         record["pressure"].append(pressure)
-        record["corners"].append(
-            np.vstack(
-                [np.zeros((0, 2))]
-                + [
-                    plant.EvalBodyPoseInWorld(context, body).multiply(sole.corners.T).T[:, :2]
-                    for body, sole in zip(sole_bodies, soles.values())
-                ]
-            )
-        )
+        balance.sample(frame / clip.fps)
         if fall(context):
             fell_at = frame / clip.fps
             break
@@ -150,6 +144,7 @@ def perform(
             at = (frames - 1 + step) / clip.fps
             sim.simulator.AdvanceTo((held + frames - 1 + step) / clip.fps)  # on the frames' grid
             settled = step / clip.fps
+            balance.sample(at)
             if fall(context):
                 fell_at = at
                 break
@@ -168,15 +163,11 @@ def perform(
         contact_names=[f"{side}_foot" for side in sides],
         contacts=forces[:, :, 2] >= LOADED * weight,
     )
-    loaded = forces[:, :, 2] >= LOADED * weight
     report = _report(clip, performed, emb, np.array(record["torques"]))
     report["least_pressure_margin_m"] = None  # a robot on a base stands on no soles
-    if soles:
-        down = np.concatenate(
-            [np.repeat(loaded[:, [i]], len(sole.corners), axis=1) for i, sole in enumerate(soles.values())], 1
-        )
-        corners, pressure = np.array(record["corners"]), np.array(record["pressure"])
-        report["least_pressure_margin_m"] = _least_margin(corners, down, pressure)
+    if soles:  # over the clip's frames (the trace's first), not the settle after them
+        corners, down = np.array(balance.corners[:done]), np.array(balance.down[:done])
+        report["least_pressure_margin_m"] = _least_margin(corners, down, np.array(record["pressure"]))
     report |= {"fell": fell_at is not None, "fell_at_s": fell_at, "frames": done, "wall_time_s": round(wall, 2)}
     report["settle_s"] = round(settled, 3)
     # The steps the controller took of its own to catch the robot (`whole_body.WholeBodyController._start_catch`):
@@ -188,6 +179,7 @@ def perform(
     torques = np.array(record["torques"])
     saturated = (np.abs(torques) >= SATURATED * emb.effort_limits).mean(axis=0) if len(torques) else None
     report["cannot"] = demands_beyond(clip, emb, saturated) if fell_at is not None else []
+    report["lost_balance"] = balance.lost() if fell_at is not None and soles else None
     return Performance(performed, np.array(record["actions"]), np.array(record["torques"]), forces, report)
 
 
@@ -230,6 +222,79 @@ def demands_beyond(clip: MotionClip, emb, saturated: np.ndarray | None = None) -
                 f"performed frames (the clip's inverse dynamics asks up to {ratios[:, j].max():.1f}x it)"
             )
     return reasons
+
+
+class _BalanceTrace:
+    """Per sampled moment of a performance: the robot's capture point, its
+    soles' corners and which of them the floor carries, and its heading;
+    then when it lost its balance (`lost`)."""
+
+    def __init__(self, plant, context, model, root, feet, sides, sole_bodies, soles, weight):
+        self._plant, self._context, self._model, self._root = plant, context, model, root
+        self._feet, self._sides, self._bodies, self._soles = feet, sides, sole_bodies, list(soles.values())
+        self._weight = weight
+        self.times, self.captures, self.corners, self.down, self.headings, self.standing = [], [], [], [], [], []
+
+    def sample(self, at: float) -> None:
+        """Record the robot's state at clip time `at`."""
+        from hotu_drake.control.catch_step import capture_point
+        from hotu_drake.rotations import heading_yaw
+
+        if not self._soles:
+            return
+        plant, context, model = self._plant, self._context, self._model
+        com = plant.CalcCenterOfMassPositionInWorld(context, [model])
+        velocity = plant.CalcCenterOfMassTranslationalVelocityInWorld(context, [model])
+        forces, _ = _floor_forces(plant, context, self._feet, len(self._sides))
+        loaded = forces[:, 2] >= LOADED * self._weight
+        self.times.append(at)
+        self.captures.append(capture_point(com, velocity))
+        self.corners.append(
+            np.vstack(
+                [
+                    plant.EvalBodyPoseInWorld(context, body).multiply(sole.corners.T).T[:, :2]
+                    for body, sole in zip(self._bodies, self._soles)
+                ]
+            )
+        )
+        self.down.append(np.concatenate([np.full(len(sole.corners), on) for sole, on in zip(self._soles, loaded)]))
+        self.headings.append(float(heading_yaw(plant.EvalBodyPoseInWorld(context, self._root).rotation().matrix())))
+        self.standing.append([f"{side}_foot" for side, on in zip(self._sides, loaded) if on])
+
+    def lost(self) -> dict | None:
+        """When the capture point last left the loaded soles (by `LOST` or
+        more, or no sole loaded) and stayed out to the last sample: the time
+        (s, the clip's), and at the first of those samples with a sole
+        loaded how far out (m), which way against the robot's heading
+        (`ahead`, `behind`, `left`, `right`) and the feet it stood on
+        (`in the air` and none, if no sole was loaded again); None if it was
+        inside at the last sample."""
+        from hotu_drake.control.clip_plan import into_support
+        from hotu_drake.retarget.balance import Support
+
+        if not self.times:
+            return None
+        corners, down, captures = np.array(self.corners), np.array(self.down), np.array(self.captures)
+        margins = Support(corners, down, 0.0).margin(captures)
+        out = ~(margins >= -LOST)  # no sole loaded (NaN): out
+        if not out[-1]:
+            return None
+        start = len(out) - 1
+        while start > 0 and out[start - 1]:
+            start -= 1
+        lost = {"at_s": round(self.times[start], 3), "outside_m": None, "toward": "in the air", "standing_on": []}
+        standing = [k for k in range(start, len(out)) if down[k].any()]
+        if standing:
+            k = standing[0]
+            offset = captures[k] - into_support(captures[k], corners[k][down[k]])
+            yaw = self.headings[k]
+            ahead, left = offset @ [np.cos(yaw), np.sin(yaw)], offset @ [-np.sin(yaw), np.cos(yaw)]
+            if abs(ahead) >= abs(left):
+                toward = "ahead" if ahead > 0 else "behind"
+            else:
+                toward = "left" if left > 0 else "right"
+            lost |= {"outside_m": round(float(-margins[k]), 3), "toward": toward, "standing_on": self.standing[k]}
+        return lost
 
 
 def _floor_forces(plant, context, feet: dict[int, int], count: int) -> tuple[np.ndarray, np.ndarray]:

@@ -715,6 +715,56 @@ def test_a_fall_is_explained_by_the_clips_flight_phase():
     assert reason.startswith("flight: 1 phase with no foot down, the first at 1.00 s, the longest 0.50 s"), reason
 
 
+@pytest.mark.parametrize("way, toward", [((0.0, 1.5), "left"), ((1.5, 0.0), "ahead")])
+def test_a_fall_says_when_and_which_way_the_robot_lost_its_balance(way, toward):
+    """A clip that carries the UDH off its feet (its root sliding at 1.5
+    m/s from the first frame: a capture point 0.5 m out, past any step)
+    is reported lost from its first frame, outside its soles, toward the
+    way it slid; the standing clip it was made from stands, nothing lost."""
+    from hotu_drake.motion.clip import MotionClip
+    from hotu_drake.physical import perform
+
+    emb = embodiment.load("udh", "none")
+    standing = standing_clip(emb, 1.0)
+    assert perform(standing, settle=0.0).report["lost_balance"] is None
+    root = standing.root_position.copy()
+    root[:, :2] += np.outer(np.arange(standing.num_frames) / standing.fps, way)
+    sliding = MotionClip.from_positions(
+        emb.name,
+        "sliding",
+        standing.fps,
+        standing.joint_names,
+        standing.joint_positions,
+        root,
+        standing.root_quaternion,
+        contact_names=standing.contact_names,
+        contacts=standing.contacts,
+    )
+    report = perform(sliding).report
+    assert report["fell"]
+    lost = report["lost_balance"]
+    assert lost["at_s"] == 0.0 and lost["at_s"] <= report["fell_at_s"]
+    assert lost["toward"] == toward and lost["outside_m"] > 0.1 and lost["standing_on"]
+
+
+def test_retarget_physics_says_where_a_fall_began():
+    """`retarget --physics` closes with a line per fall: when it fell, and
+    when, how far and which way its balance was lost (or that it was in
+    the air)."""
+    from hotu_drake.commands.retarget import _outcome
+
+    report = {"fell": True, "fell_at_s": 1.9667}
+    lost = {"at_s": 0.367, "outside_m": 0.091, "toward": "right", "standing_on": ["left_foot"]}
+    assert _outcome(report | {"lost_balance": lost}) == (
+        "fell at 1.97 s (lost its balance at 0.37 s: 0.09 m to the right of its left foot)"
+    )
+    both = lost | {"toward": "behind", "standing_on": ["left_foot", "right_foot"]}
+    assert _outcome(report | {"lost_balance": both}).endswith("0.09 m behind its feet)")
+    flying = {"at_s": 1.0, "outside_m": None, "toward": "in the air", "standing_on": []}
+    assert _outcome(report | {"lost_balance": flying}) == "fell at 1.97 s (lost its balance at 1.00 s, in the air)"
+    assert _outcome(report | {"lost_balance": None}) == "fell at 1.97 s"
+
+
 def test_bench_performs_and_pushes_report_falls_per_robot_and_motion():
     """`bench performs` (each robot's motions under the controller, the
     looped walk from seeds) and `bench pushes` (cubes at a robot standing
@@ -745,6 +795,7 @@ def test_bench_performs_and_pushes_report_falls_per_robot_and_motion():
     assert starts.returncode == 0, starts.stderr
     (row,) = json.loads(starts.stdout)["rows"]
     assert row["up_starts"] == 2 and row["fell_at_s_by_start"] == [None, None] and row["hands"] == "full"
+    assert row["lost_balance_by_start"] == [None, None]
     assert "| wave | 2/2 |" in starts.stderr
     pushes = subprocess.run(
         [*command, "pushes", "--robots", "walker", "--momenta", "0", "--markdown"],

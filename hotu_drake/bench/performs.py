@@ -61,6 +61,8 @@ def perform_row(robot: str, motion: str, clip, starts: int = 1) -> dict:
         # How closely each start followed the clip (a start that stood may still have ended far from it).
         "key_body_rms_m_by_start": [each["key_body_rms_m"] for each in reports],
         "end_offset_m_by_start": [each["end_offset_m"] for each in reports],
+        # Where each start that fell lost its balance (`physical.perform`'s `lost_balance`; None if it stood).
+        "lost_balance_by_start": [each.get("lost_balance") for each in reports],
     }
 
 

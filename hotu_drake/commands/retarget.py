@@ -187,9 +187,29 @@ def main(argv: list[str] | None = None) -> int:
         replays.append((stem, source, results, performed))
     if replays:  # a run whose every input was refused writes nothing, not even the report of its errors
         _write(args, out, robots, figures, failures, replays)
+    for stem, _, _, performed in replays:  # the falls, each in a line, once the progress bar is done
+        for robot, performance in performed.items():
+            if performance.report["fell"]:
+                print(f"{stem} -> {robot}: {_outcome(performance.report)}", file=sys.stderr)
     written = len(replays) * len(robots) + sum(len(performed) for *_, performed in replays)
     print(f"retargeted {len(replays)} clip(s) onto {', '.join(robots)}: {written} file(s) in {out}", file=sys.stderr)
     return 2 if failures else 0
+
+
+def _outcome(report: dict) -> str:
+    """A performance's fall in a few words: when, and when and which way it
+    lost its balance."""
+    text = f"fell at {report['fell_at_s']:.2f} s"
+    lost = report.get("lost_balance")
+    if lost and lost["outside_m"] is not None:
+        sides = [foot.removesuffix("_foot") for foot in lost["standing_on"]]
+        soles = f"its {sides[0]} foot" if len(sides) == 1 else "its feet"
+        way = {"ahead": "ahead of", "behind": "behind", "left": "to the left of", "right": "to the right of"}
+        where = f"{lost['outside_m']:.2f} m {way[lost['toward']]} {soles}"
+        text += f" (lost its balance at {lost['at_s']:.2f} s: {where})"
+    elif lost:
+        text += f" (lost its balance at {lost['at_s']:.2f} s, in the air)"
+    return text
 
 
 def _source(path: str, args):
