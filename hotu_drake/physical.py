@@ -19,7 +19,7 @@ steps the controller took of its own to catch the robot, and for a robot
 that fell what in the clip is past it (`cannot`: a flight phase, a
 joint asked more than its torque limit) and when and where it lost its
 balance (`lost_balance`: its capture point gone from its loaded soles for
-good, whatever the clip asked).
+good; None if it was still over them as it fell, a fall of another kind).
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ import numpy as np
 
 from hotu_drake.motion.clip import MotionClip, lifts
 from hotu_drake.motion.playback import ClipPlayback
-from hotu_drake.rotations import matrix_to_quat
+from hotu_drake.rotations import heading_yaw, matrix_to_quat
 
 LOADED = 0.05  # a foot carries the robot when the floor pushes it with this share of its weight or more
 SATURATED = 0.99  # a joint is at its torque limit at this share of it
@@ -42,7 +42,7 @@ FLIGHT = 0.1  # s: no foot down for this long is a flight phase (a jump), which 
 # (H1 stopping in start_stop, 4 starts of 10) stood through the clip and fell just after it.
 SETTLE = 1.0
 OVER_LIMIT = 0.05  # a joint the clip asks more than its limit of on this share of its frames is past what it can do
-LOST = 0.02  # m: a capture point this far outside the loaded soles (or over none) is beyond what they can push back
+LOST = 0.02  # m: a capture point more than this outside the loaded soles (or over none) is past what they can push
 
 
 @dataclass
@@ -111,7 +111,7 @@ def perform(
     held = controller.plan.clip.num_frames - frames  # the lead-in's frames, before the clip's
     record = {name: [] for name in ("q", "root_p", "root_q", "keys", "actions", "torques", "forces", "pressure")}
     sole_bodies = [plant.GetBodyByName(sole.body.name(), model) for sole in soles.values()]
-    balance = _BalanceTrace(plant, context, model, root, feet, sides, sole_bodies, soles, weight)
+    balance = _BalanceTrace(plant, context, model, root, sides, sole_bodies, soles)
     fell_at, checked = None, 0
     for frame in range(-held, frames):
         sim.simulator.AdvanceTo((held + frame) / clip.fps)
@@ -131,7 +131,7 @@ def perform(
         forces, pressure = _floor_forces(plant, context, feet, len(sides))
         record["forces"].append(forces)
         record["pressure"].append(pressure)
-        balance.sample(frame / clip.fps)
+        balance.sample(frame / clip.fps, forces[:, 2] >= LOADED * weight)
         if fall(context):
             fell_at = frame / clip.fps
             break
@@ -144,7 +144,7 @@ def perform(
             at = (frames - 1 + step) / clip.fps
             sim.simulator.AdvanceTo((held + frames - 1 + step) / clip.fps)  # on the frames' grid
             settled = step / clip.fps
-            balance.sample(at)
+            balance.sample(at, _floor_forces(plant, context, feet, len(sides))[0][:, 2] >= LOADED * weight)
             if fall(context):
                 fell_at = at
                 break
@@ -227,26 +227,25 @@ def demands_beyond(clip: MotionClip, emb, saturated: np.ndarray | None = None) -
 class _BalanceTrace:
     """Per sampled moment of a performance: the robot's capture point, its
     soles' corners and which of them the floor carries, and its heading;
-    then when it lost its balance (`lost`)."""
+    then when it lost its balance (`lost`). The robot is `model` in
+    `plant` at `context`, its `root` body, its feet's `sides` and their
+    soles (`soles`, by contact name, on the bodies `sole_bodies`), in one
+    order."""
 
-    def __init__(self, plant, context, model, root, feet, sides, sole_bodies, soles, weight):
+    def __init__(self, plant, context, model, root, sides, sole_bodies, soles):
         self._plant, self._context, self._model, self._root = plant, context, model, root
-        self._feet, self._sides, self._bodies, self._soles = feet, sides, sole_bodies, list(soles.values())
-        self._weight = weight
+        self._sides, self._bodies, self._soles = sides, sole_bodies, list(soles.values())
         self.times, self.captures, self.corners, self.down, self.headings, self.standing = [], [], [], [], [], []
 
-    def sample(self, at: float) -> None:
-        """Record the robot's state at clip time `at`."""
+    def sample(self, at: float, loaded: np.ndarray) -> None:
+        """Record the robot's state at clip time `at`, with the feet the floor carries (`loaded`, per side)."""
         from hotu_drake.control.catch_step import capture_point
-        from hotu_drake.rotations import heading_yaw
 
         if not self._soles:
             return
         plant, context, model = self._plant, self._context, self._model
         com = plant.CalcCenterOfMassPositionInWorld(context, [model])
         velocity = plant.CalcCenterOfMassTranslationalVelocityInWorld(context, [model])
-        forces, _ = _floor_forces(plant, context, self._feet, len(self._sides))
-        loaded = forces[:, 2] >= LOADED * self._weight
         self.times.append(at)
         self.captures.append(capture_point(com, velocity))
         self.corners.append(
@@ -262,8 +261,8 @@ class _BalanceTrace:
         self.standing.append([f"{side}_foot" for side, on in zip(self._sides, loaded) if on])
 
     def lost(self) -> dict | None:
-        """When the capture point last left the loaded soles (by `LOST` or
-        more, or no sole loaded) and stayed out to the last sample: the time
+        """When the capture point last left the loaded soles (by more than
+        `LOST`, or no sole loaded) and stayed out to the last sample: the time
         (s, the clip's), and at the first of those samples with a sole
         loaded how far out (m), which way against the robot's heading
         (`ahead`, `behind`, `left`, `right`) and the feet it stood on

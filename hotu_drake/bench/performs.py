@@ -9,7 +9,8 @@ took of its own to catch the robot (per start; the table gives the starts
 that took any), how closely each start followed the clip (its key
 bodies' RMS from the clip's, and how far from the clip's end its pelvis
 ended), and, for a robot that fell, what in the clip is past it
-(`Performance.report["cannot"]`). The
+(`Performance.report["cannot"]`) and, per start, where it lost its
+balance (`lost_balance`). The
 library walk looped for 10 s (`whole_body_walk_<robot>`) from several
 seeds (its start drawn 0-0.05 s into the clip): how many it walked, and
 its travel against the clip's. A capture (`--input`, a BVH or C3D)
@@ -62,7 +63,7 @@ def perform_row(robot: str, motion: str, clip, starts: int = 1) -> dict:
         "key_body_rms_m_by_start": [each["key_body_rms_m"] for each in reports],
         "end_offset_m_by_start": [each["end_offset_m"] for each in reports],
         # Where each start that fell lost its balance (`physical.perform`'s `lost_balance`; None if it stood).
-        "lost_balance_by_start": [each.get("lost_balance") for each in reports],
+        "lost_balance_by_start": [each["lost_balance"] for each in reports],
     }
 
 

@@ -526,6 +526,8 @@ class TorqueDemand:
         its only model: a controller's), or on a plant of its own."""
         from pydrake.multibody.plant import MultibodyPlant
 
+        if (plant is None) != (model is None):
+            raise ValueError("TorqueDemand: a plant and its model, or neither")
         self.emb = emb
         if plant is None:
             plant = MultibodyPlant(0.0)
