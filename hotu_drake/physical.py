@@ -33,7 +33,7 @@ import numpy as np
 
 from hotu_drake.motion.clip import MotionClip, lifts
 from hotu_drake.motion.playback import ClipPlayback
-from hotu_drake.rotations import heading_yaw, matrix_to_quat
+from hotu_drake.rotations import matrix_to_quat
 
 LOADED = 0.05  # a foot carries the robot when the floor pushes it with this share of its weight or more
 SATURATED = 0.99  # a joint is at its torque limit at this share of it
@@ -166,7 +166,7 @@ def perform(
     report = _report(clip, performed, emb, np.array(record["torques"]))
     report["least_pressure_margin_m"] = None  # a robot on a base stands on no soles
     if soles:  # over the clip's frames (the trace's first), not the settle after them
-        corners, down = np.array(balance.corners[:done]), np.array(balance.down[:done])
+        corners, down = np.array(balance.corners[:done]), balance.down()[:done]
         report["least_pressure_margin_m"] = _least_margin(corners, down, np.array(record["pressure"]))
     report |= {"fell": fell_at is not None, "fell_at_s": fell_at, "frames": done, "wall_time_s": round(wall, 2)}
     report["settle_s"] = round(settled, 3)
@@ -226,16 +226,15 @@ def demands_beyond(clip: MotionClip, emb, saturated: np.ndarray | None = None) -
 
 class _BalanceTrace:
     """Per sampled moment of a performance: the robot's capture point, its
-    soles' corners and which of them the floor carries, and its heading;
-    then when it lost its balance (`lost`). The robot is `model` in
-    `plant` at `context`, its `root` body, its feet's `sides` and their
-    soles (`soles`, by contact name, on the bodies `sole_bodies`), in one
-    order."""
+    soles' corners, which feet the floor carries and the way it faces; then
+    when it lost its balance (`lost`). The robot is `model` in `plant` at
+    `context`, its `root` body, its feet's `sides` and their soles (`soles`,
+    by contact name, on the bodies `sole_bodies`), in one order."""
 
     def __init__(self, plant, context, model, root, sides, sole_bodies, soles):
         self._plant, self._context, self._model, self._root = plant, context, model, root
         self._sides, self._bodies, self._soles = sides, sole_bodies, list(soles.values())
-        self.times, self.captures, self.corners, self.down, self.headings, self.standing = [], [], [], [], [], []
+        self.times, self.captures, self.corners, self.loaded, self.headings = [], [], [], [], []
 
     def sample(self, at: float, loaded: np.ndarray) -> None:
         """Record the robot's state at clip time `at`, with the feet the floor carries (`loaded`, per side)."""
@@ -256,9 +255,13 @@ class _BalanceTrace:
                 ]
             )
         )
-        self.down.append(np.concatenate([np.full(len(sole.corners), on) for sole, on in zip(self._soles, loaded)]))
-        self.headings.append(float(heading_yaw(plant.EvalBodyPoseInWorld(context, self._root).rotation().matrix())))
-        self.standing.append([f"{side}_foot" for side, on in zip(self._sides, loaded) if on])
+        self.loaded.append(np.asarray(loaded, bool))
+        self.headings.append(plant.EvalBodyPoseInWorld(context, self._root).rotation().matrix()[:2, 0])
+
+    def down(self) -> np.ndarray:
+        """Per sample, which sole corners the floor carries (T, K): their feet's `loaded`."""
+        counts = [len(sole.corners) for sole in self._soles]
+        return np.array([np.repeat(loaded, counts) for loaded in self.loaded]).reshape(len(self.loaded), sum(counts))
 
     def lost(self) -> dict | None:
         """When the capture point last left the loaded soles (by more than
@@ -269,11 +272,12 @@ class _BalanceTrace:
         (`in the air` and none, if no sole was loaded again); None if it was
         inside at the last sample."""
         from hotu_drake.control.clip_plan import into_support
+        from hotu_drake.control.footsteps import heading_axes
         from hotu_drake.retarget.balance import Support
 
         if not self.times:
             return None
-        corners, down, captures = np.array(self.corners), np.array(self.down), np.array(self.captures)
+        corners, down, captures = np.array(self.corners), self.down(), np.array(self.captures)
         margins = Support(corners, down, 0.0).margin(captures)
         out = ~(margins >= -LOST)  # no sole loaded (NaN): out
         if not out[-1]:
@@ -286,13 +290,13 @@ class _BalanceTrace:
         if standing:
             k = standing[0]
             offset = captures[k] - into_support(captures[k], corners[k][down[k]])
-            yaw = self.headings[k]
-            ahead, left = offset @ [np.cos(yaw), np.sin(yaw)], offset @ [-np.sin(yaw), np.cos(yaw)]
-            if abs(ahead) >= abs(left):
-                toward = "ahead" if ahead > 0 else "behind"
+            forward, left = (offset @ axis for axis in heading_axes(self.headings[k]))
+            if abs(forward) >= abs(left):
+                toward = "ahead" if forward > 0 else "behind"
             else:
                 toward = "left" if left > 0 else "right"
-            lost |= {"outside_m": round(float(-margins[k]), 3), "toward": toward, "standing_on": self.standing[k]}
+            feet = [f"{side}_foot" for side, on in zip(self._sides, self.loaded[k]) if on]
+            lost |= {"outside_m": round(float(-margins[k]), 3), "toward": toward, "standing_on": feet}
         return lost
 
 

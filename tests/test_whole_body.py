@@ -752,20 +752,21 @@ def test_where_balance_was_lost_is_the_last_run_outside_the_soles_in_the_robots_
     where that last run starts, 0.05 m behind; a trace that ends inside is
     no loss; one whose soles carry nothing from some sample on is lost in
     the air from there."""
+    from hotu_drake.control.whole_body_qp import Sole
     from hotu_drake.physical import _BalanceTrace
 
     square = np.array([[-0.1, -0.1], [0.1, -0.1], [0.1, 0.1], [-0.1, 0.1]])
     captures = [(0.0, 0.0), (0.3, 0.0), (0.0, 0.0), (0.0, -0.15), (0.0, -0.4)]
 
     def trace(points, loaded):
-        balance = _BalanceTrace(None, None, None, None, ["left"], [], {})
+        sole = Sole(None, np.hstack([square, np.zeros((4, 1))]))
+        balance = _BalanceTrace(None, None, None, None, ["left"], [None], {"left_foot": sole})
         for k, (point, on) in enumerate(zip(points, loaded)):
             balance.times.append(k / 10)
             balance.captures.append(np.array(point))
             balance.corners.append(square)
-            balance.down.append(np.full(4, on))
-            balance.headings.append(np.pi / 2)
-            balance.standing.append(["left_foot"] if on else [])
+            balance.loaded.append(np.array([on]))
+            balance.headings.append(np.array([0.0, 1.0]))
         return balance.lost()
 
     lost = trace(captures, [True] * 5)
