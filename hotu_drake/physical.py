@@ -131,7 +131,7 @@ def perform(
         forces, pressure = _floor_forces(plant, context, feet, len(sides))
         record["forces"].append(forces)
         record["pressure"].append(pressure)
-        balance.sample(frame / clip.fps, forces[:, 2] >= LOADED * weight)
+        balance.sample(frame / clip.fps, _loaded(forces, weight))
         if fall(context):
             fell_at = frame / clip.fps
             break
@@ -144,7 +144,7 @@ def perform(
             at = (frames - 1 + step) / clip.fps
             sim.simulator.AdvanceTo((held + frames - 1 + step) / clip.fps)  # on the frames' grid
             settled = step / clip.fps
-            balance.sample(at, _floor_forces(plant, context, feet, len(sides))[0][:, 2] >= LOADED * weight)
+            balance.sample(at, _loaded(_floor_forces(plant, context, feet, len(sides))[0], weight))
             if fall(context):
                 fell_at = at
                 break
@@ -161,7 +161,7 @@ def perform(
         np.array(record["keys"]),
         part_index=emb.parts,
         contact_names=[f"{side}_foot" for side in sides],
-        contacts=forces[:, :, 2] >= LOADED * weight,
+        contacts=_loaded(forces, weight),
     )
     report = _report(clip, performed, emb, np.array(record["torques"]))
     report["least_pressure_margin_m"] = None  # a robot on a base stands on no soles
@@ -298,6 +298,11 @@ class _BalanceTrace:
             feet = [f"{side}_foot" for side, on in zip(self._sides, self.loaded[k]) if on]
             lost |= {"outside_m": round(float(-margins[k]), 3), "toward": toward, "standing_on": feet}
         return lost
+
+
+def _loaded(forces: np.ndarray, weight: float) -> np.ndarray:
+    """Which feet carry the robot: the floor pushing each (`forces`, (..., feet, 3)) with `LOADED` of its `weight`."""
+    return forces[..., 2] >= LOADED * weight
 
 
 def _floor_forces(plant, context, feet: dict[int, int], count: int) -> tuple[np.ndarray, np.ndarray]:
