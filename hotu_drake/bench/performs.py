@@ -25,7 +25,6 @@ import tempfile
 from pathlib import Path
 
 from hotu_drake import embodiment
-from hotu_drake.embodiment.spec import FINGER_PART
 from hotu_drake.motion.clip import MotionClip
 
 
@@ -75,7 +74,7 @@ def looped_walk_row(robot: str, seeds: int, walk: MotionClip | None = None, hand
     from hotu_drake.scenario import load_scenario
 
     ratios, falls = [], []
-    fingers = any(joint.part == FINGER_PART for joint in embodiment.load(robot, hands).spec.joints)
+    fingers = bool(embodiment.load(robot, hands).finger_joints)
     with tempfile.TemporaryDirectory() as folder:
         if walk is not None:
             walk.save(Path(folder) / "walk.npz")
