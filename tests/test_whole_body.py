@@ -314,8 +314,11 @@ def test_the_back_foot_of_a_lunge_stands_on_its_toes(monkeypatch):
     (the clip's foot planted, its sole pitched 0.55 rad): held on its toes
     (`PLANTED_TOE_PITCH`) NAVIAI stands through the clip from its first
     frame, without a catch step (from four starts: four up, measured);
-    held flat it falls from three starts of four (3.8-4.0 s) and from its
-    first frame stands only by three catch steps, ending 0.34 m off."""
+    held flat it falls from three starts of four (3.7-4.0 s) and from its
+    first frame does not perform the clip as its toes do: it ended 0.34 m
+    off, key bodies 0.18 m RMS, on one machine after three catch steps and
+    on another with none (which of the two the simulation takes is no
+    property of the controller's: the test asks for the bar the toes pass)."""
     from hotu_drake.physical import perform
 
     clip = library_clip("leg_stretch", "naviai", "none")
@@ -327,7 +330,8 @@ def test_the_back_foot_of_a_lunge_stands_on_its_toes(monkeypatch):
     assert report["end_offset_m"] < 0.25 and report["key_body_rms_m"] < 0.15, report
     monkeypatch.setattr(whole_body, "PLANTED_TOE_PITCH", np.inf)
     flat = perform(clip).report
-    assert flat["fell"] or flat["catch_steps"], flat
+    performed = not flat["fell"] and not flat["catch_steps"]
+    assert not (performed and flat["end_offset_m"] < 0.25 and flat["key_body_rms_m"] < 0.15), flat
 
 
 def test_a_planted_leg_the_clip_asks_past_its_limits_is_left_to_its_foot_and_body():
