@@ -4,7 +4,7 @@ import dataclasses
 
 import numpy as np
 
-from hotu_drake.control.clip_plan import SHIFT_TIME, footstep_zmp, into_support
+from hotu_drake.control.clip_plan import SHIFT_TIME, footstep_zmp, interp_rows, into_support
 
 SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
 
@@ -15,6 +15,17 @@ def test_a_point_inside_the_support_stays_and_one_outside_moves_to_its_nearest_e
     np.testing.assert_allclose(into_support(np.array([-1.0, -2.0]), SQUARE), [0.0, 0.0])
     line = np.array([[0.0, 0.0], [0.0, 1.0]])  # a line foot (BRUCE's): its segment
     np.testing.assert_allclose(into_support(np.array([0.2, 0.5]), line), [0.0, 0.5])
+
+
+def test_rows_interpolated_at_once_are_np_interp_on_each_column():
+    """At a time of the grid, between two, before the first and past the
+    last: every column as `np.interp` gives it (uneven times, signed rows)."""
+    rng = np.random.default_rng(0)
+    times = np.cumsum(rng.uniform(0.01, 0.1, 40))
+    rows = rng.normal(size=(40, 5))
+    for at in [times[0] - 1.0, times[0], times[7], 0.3 * times[3] + 0.7 * times[4], times[-1], times[-1] + 2.0]:
+        expected = [np.interp(at, times, rows[:, k]) for k in range(rows.shape[1])]
+        np.testing.assert_allclose(interp_rows(at, times, rows), expected, rtol=1e-12, atol=1e-15)
 
 
 def test_the_planned_pressure_sits_under_the_stance_foot_and_moves_between_feet_in_double_support():

@@ -194,6 +194,22 @@ def standing_clip(embodiment: Embodiment, seconds: float = 2.0, fps: float = 30.
     )
 
 
+def interp_rows(at: float, times: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """`rows` (T, k), one per time of the increasing `times`, linearly
+    interpolated at `at` (held past either end): `np.interp` on every
+    column at once, with its arithmetic (bit for bit its values, for finite
+    rows)."""
+    if not at < times[-1]:
+        return rows[-1].copy() if at == at else np.full(rows.shape[1], np.nan)
+    if at < times[0]:
+        return rows[0].copy()
+    j = int(np.searchsorted(times, at, side="right")) - 1
+    if times[j] == at:
+        return rows[j].copy()
+    slope = (rows[j + 1] - rows[j]) / (times[j + 1] - times[j])
+    return slope * (at - times[j]) + rows[j]
+
+
 class Planar:
     """x -> R x + s with R a turn about z: where pass k of a loop puts the clip."""
 
@@ -446,6 +462,7 @@ class ClipPlan:
         if not self.loop:
             velocity[-len(extra) :], acceleration[-len(extra) :] = 0.0, 0.0
         self.com_times, self.com, self.com_velocity, self.com_acceleration = times, com, velocity, acceleration
+        self._com_rows = np.hstack([com, velocity, acceleration])  # (T, 9): `com_reference` reads all at once
         self.height = float(np.mean(com[:, 2]))
         clip_zmp = com[:, :2] - com[:, 2:3] / (GRAVITY + acceleration[:, 2:3]) * acceleration[:, :2]
         self.zmp = footstep_zmp(times, planted, anchors, clip_zmp, supports)
@@ -475,19 +492,15 @@ class ClipPlan:
         """The clip's CoM position, velocity and acceleration (world) at `time`."""
         to_plan, at = self._to_plan(time)
         back = to_plan.inverse()
-        position, velocity, acceleration = (
-            np.array([np.interp(at, self.com_times, values[:, i]) for i in range(3)])
-            for values in (self.com, self.com_velocity, self.com_acceleration)
-        )
+        position, velocity, acceleration = interp_rows(at, self.com_times, self._com_rows).reshape(3, 3)
         return back.point(position), back.rotation @ velocity, back.rotation @ acceleration
 
     def planned_com(self, time: float) -> tuple[np.ndarray, np.ndarray]:
         """The ZMP plan's nominal horizontal CoM position and velocity (world, (2,) each) at `time`."""
         to_plan, at = self._to_plan(time)
         back = to_plan.inverse()
-        at_times, nominal = self._nominal_times, self._nominal
-        position = np.array([np.interp(at, at_times, nominal[:, i]) for i in range(2)] + [0.0])
-        velocity = np.array([np.interp(at, at_times, nominal[:, 2 + i]) for i in range(2)] + [0.0])
+        x, y, x_rate, y_rate = interp_rows(at, self._nominal_times, self._nominal)
+        position, velocity = np.array([x, y, 0.0]), np.array([x_rate, y_rate, 0.0])
         return back.point(position)[:2], (back.rotation @ velocity)[:2]
 
     def com_acceleration_for(self, time: float, com: np.ndarray, com_velocity: np.ndarray) -> np.ndarray:

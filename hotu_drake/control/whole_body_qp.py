@@ -200,19 +200,16 @@ class WholeBodyQp:
         self._lower = np.r_[np.zeros(self._rows), np.full(len(pyramid), -INFINITY), np.zeros(forces)]
         self._upper = np.r_[np.zeros(self._rows), np.zeros(len(pyramid)), np.zeros(forces)]
         self._lower[self._lifting], self._upper[self._lifting] = -INFINITY, INFINITY  # active only when lifting
-        self._solver = osqp.OSQP()
         # Polishing sharpens the contact forces' active set; with no soles there is none to sharpen (and OSQP
         # would say so on stdout at every step).
         settings = SETTINGS | ({} if soles else {"polishing": False})
-        self._solver.setup(
-            self._p_pattern.matrix(np.eye(n)),
-            np.zeros(n),
-            self._a_pattern.matrix(constraints),
-            self._lower,
-            self._upper,
-            **settings,
+        self._solver = _Workspace(
+            self._p_pattern.matrix(np.eye(n)), self._a_pattern.matrix(constraints), self._lower, self._upper, settings
         )
         self._guess = np.zeros(n)
+        # Each sole's corners among all the soles' (C in all): per-sole flags spread over them (`_by_corner`).
+        ends = np.cumsum([0] + [len(sole.corners) for sole in soles.values()])
+        self._corner_slices = {name: slice(start, stop) for name, start, stop in zip(soles, ends[:-1], ends[1:])}
 
     def reset(self) -> None:
         """Forget the warm start."""
@@ -237,13 +234,10 @@ class WholeBodyQp:
 
     def _by_corner(self, flags: dict) -> np.ndarray:
         """Per corner (C,) from per sole flags (by name: a bool, or one per corner)."""
-        return np.concatenate(
-            [np.zeros(0, bool)]
-            + [
-                np.broadcast_to(np.asarray(flags.get(name, False), bool), (len(sole.corners),))
-                for name, sole in self.soles.items()
-            ]
-        )
+        out = np.zeros(self.corners, bool)
+        for name, corners in self._corner_slices.items():
+            out[corners] = flags.get(name, False)
+        return out
 
     def _heights(self, context) -> np.ndarray:
         """Each corner's height above the floor (C,)."""
@@ -290,20 +284,18 @@ class WholeBodyQp:
         contact_weight = np.repeat(np.where(down, CONTACT_WEIGHT, 0.0), 3)
         slip = -SLIP_DAMPING * (jacobian @ plant.GetVelocities(context))  # a planted corner's, against its velocity
         for task in [*tasks, Task(jacobian, bias, slip, contact_weight)]:
-            weight = np.broadcast_to(np.asarray(task.weight, float), (len(task.target),))
-            weighted = task.jacobian * weight[:, None]
+            weight = task.weight if np.isscalar(task.weight) else np.asarray(task.weight, float)[:, None]
+            weighted = task.jacobian * weight
             hessian[:nv, :nv] += weighted.T @ task.jacobian
             gradient[:nv] += weighted.T @ (task.bias - task.target)
         solver = self._solver
-        solver.update(
-            Px=self._p_pattern.values(hessian), Ax=self._a_pattern.values(constraints), q=gradient, l=lower, u=upper
-        )
-        result = solver.solve(raise_error=False)
-        success = result.info.status_val in SOLVED
-        x = result.x if success else self._guess
+        solver.update(self._p_pattern.values(hessian), self._a_pattern.values(constraints), gradient, lower, upper)
+        x = solver.solve()
+        success = x is not None
         if success:
             self._guess = x
         else:  # the next step starts from the last solution, not from the failed iterate
+            x = self._guess
             solver.warm_start(x=self._guess)
         vdot, f = x[:nv], x[nv:]
         torques = actuated @ x + h[self.actuated]
@@ -313,6 +305,33 @@ class WholeBodyQp:
             forces[name] = f[3 * start : 3 * (start + count)].reshape(count, 3)
             start += count
         return Solution(vdot, forces, np.clip(torques, -self._limits, self._limits), success)
+
+
+class _Workspace:
+    """One OSQP workspace, set up once and then only updated and solved.
+
+    Through the solver object inside OSQP's Python interface (osqp 1.x):
+    the interface's `update` and `solve` add to every call bookkeeping this
+    loop does not use (a cache for its derivatives, a copy of every field of
+    its info)."""
+
+    def __init__(self, hessian: sparse.csc_matrix, constraints: sparse.csc_matrix, lower, upper, settings: dict):
+        self._osqp = osqp.OSQP()
+        self._osqp.setup(hessian, np.zeros(hessian.shape[0]), constraints, lower, upper, **settings)
+        self._solver = self._osqp._solver
+
+    def update(self, hessian: np.ndarray, constraints: np.ndarray, gradient, lower, upper) -> None:
+        """New values of the upper triangle's and the constraints' nonzeros (CSC order), the gradient and bounds."""
+        self._solver.update_data_vec(q=gradient, l=np.maximum(lower, -INFINITY), u=np.minimum(upper, INFINITY))
+        self._solver.update_data_mat(P_x=hessian, P_i=None, A_x=constraints, A_i=None)
+
+    def solve(self) -> np.ndarray | None:
+        """The primal solution, warm-started from the last; None if OSQP did not solve it."""
+        self._solver.solve()
+        return self._solver.solution.x if self._solver.info.status_val in SOLVED else None
+
+    def warm_start(self, x: np.ndarray | None = None, y: np.ndarray | None = None) -> None:
+        self._osqp.warm_start(x=x, y=y)
 
 
 class _Pattern:
