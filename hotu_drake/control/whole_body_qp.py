@@ -284,7 +284,7 @@ class WholeBodyQp:
         contact_weight = np.repeat(np.where(down, CONTACT_WEIGHT, 0.0), 3)
         slip = -SLIP_DAMPING * (jacobian @ plant.GetVelocities(context))  # a planted corner's, against its velocity
         for task in [*tasks, Task(jacobian, bias, slip, contact_weight)]:
-            weight = task.weight if np.isscalar(task.weight) else np.asarray(task.weight, float)[:, None]
+            weight = task.weight if np.ndim(task.weight) == 0 else np.asarray(task.weight, float)[:, None]
             weighted = task.jacobian * weight
             hessian[:nv, :nv] += weighted.T @ task.jacobian
             gradient[:nv] += weighted.T @ (task.bias - task.target)
