@@ -461,8 +461,9 @@ class ClipPlan:
         acceleration = smooth(np.gradient(velocity, 1.0 / fps, axis=0), fps, PRESSURE_SMOOTHING)
         if not self.loop:
             velocity[-len(extra) :], acceleration[-len(extra) :] = 0.0, 0.0
-        self.com_times, self.com, self.com_velocity, self.com_acceleration = times, com, velocity, acceleration
-        self._com_rows = np.hstack([com, velocity, acceleration])  # (T, 9): `com_reference` reads all at once
+        # One (T, 9) array, read all at once by `com_reference`; the CoM, its velocity and acceleration views of it.
+        self.com_times, self._com_rows = times, np.hstack([com, velocity, acceleration])
+        self.com, self.com_velocity, self.com_acceleration = np.hsplit(self._com_rows, 3)
         self.height = float(np.mean(com[:, 2]))
         clip_zmp = com[:, :2] - com[:, 2:3] / (GRAVITY + acceleration[:, 2:3]) * acceleration[:, :2]
         self.zmp = footstep_zmp(times, planted, anchors, clip_zmp, supports)
