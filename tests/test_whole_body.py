@@ -65,6 +65,55 @@ def test_the_qp_forces_lie_in_their_friction_cones_and_balance_the_dynamics(h1_s
     np.testing.assert_allclose(generalized, actuation, atol=1e-3 * scale)
 
 
+def _walk_controller_at_random_states(robot: str, seed: int, count: int = 5):
+    """A controller of `robot`'s walk, its context set to `count` random
+    states (joints within half a radian, velocities of order 1) in turn."""
+    controller = WholeBodyController(embodiment.load(robot, "none"), library_clip("walk", robot, "none"), 1.0 / 60.0)
+    plant, context = controller._plant, controller._context
+    rng = np.random.default_rng(seed)
+    for _ in range(count):
+        x = plant.GetPositionsAndVelocities(context)
+        x[controller._q] = rng.uniform(-0.5, 0.5, len(controller._q))
+        x[plant.num_positions() :] = rng.standard_normal(plant.num_velocities())
+        plant.SetPositionsAndVelocities(context, x)
+        yield controller
+
+
+@pytest.mark.parametrize("robot", ["h1", "bruce", "naviai"])
+def test_the_qps_sparsity_holds_every_entry_of_the_dynamics_and_the_corners(robot):
+    """The QP is set up with the kinematic tree's sparsity (`_tree_structure`):
+    at random states, every nonzero of the rows it sets at each step (M,
+    the corners' Jacobians) falls where the pattern has room, and the
+    pattern leaves out a share of those rows (legs apart, arms apart)."""
+    from hotu_drake.control.whole_body_qp import WholeBodyQp, feet_soles
+
+    for controller in _walk_controller_at_random_states(robot, seed=1):
+        plant, context, emb = controller._plant, controller._context, controller.embodiment
+        qp = WholeBodyQp(plant, feet_soles(plant, emb), emb.effort_limits)
+        pattern = np.zeros(qp._constraints.shape, bool)
+        pattern[qp._a_pattern.rows, qp._a_pattern.columns] = True
+        qp.solve(context, [], {name: True for name in qp.soles})
+        assert not np.any((qp._constraints != 0.0) & ~pattern)
+    assert pattern[: qp._lifting.stop].mean() < 0.8
+
+
+@pytest.mark.parametrize("robot", ["h1", "udh", "bruce"])
+def test_the_coms_rows_from_the_mass_matrix_are_drakes(robot):
+    """On a floating base the CoM's Jacobian and Jdot v come from the base's
+    linear rows of M and of C(q, v) v over the mass: equal to Drake's own at
+    random states."""
+    from pydrake.multibody.tree import JacobianWrtVariable
+
+    kv = JacobianWrtVariable.kV
+    for controller in _walk_controller_at_random_states(robot, seed=2):
+        plant, context, world = controller._plant, controller._context, controller._plant.world_frame()
+        jacobian, bias = controller._com_rows_from(plant.CalcMassMatrix(context), plant.CalcBiasTerm(context))
+        expected = plant.CalcJacobianCenterOfMassTranslationalVelocity(context, kv, world, world)
+        np.testing.assert_allclose(jacobian, expected, atol=1e-12)
+        expected = plant.CalcBiasCenterOfMassTranslationalAcceleration(context, kv, world, world)
+        np.testing.assert_allclose(bias, expected, atol=1e-10 * max(1.0, np.abs(expected).max()))
+
+
 def test_a_sole_that_rolls_with_its_leg_stands_on_its_lower_edge(h1_squat_controller):
     """H1's soles turn only as its legs lean: a planted sole rolled onto its
     left edge is held at its two left corners; flat with both feet down,
@@ -662,12 +711,14 @@ def test_bench_teacher_reports_the_walk_and_the_label_cost():
 
     command = [sys.executable, "-m", "hotu_drake.bench", "teacher"]
     result = subprocess.run(
-        [*command, "--seconds", "0.5", "--queries", "3"], capture_output=True, text=True, timeout=300
+        [*command, "--seconds", "0.5", "--repeats", "3", "--queries", "3"], capture_output=True, text=True, timeout=300
     )
     assert result.returncode == 0, result.stderr
     report = json.loads(result.stdout)
     walking, labels = report["walking"], report["labels"]
     assert walking["simulated_s"] == 0.5 and not walking["fell"]
+    factors = walking["realtime_factors"]
+    assert len(factors) == 3 and factors == sorted(factors) and walking["realtime_factor"] == factors[1]
     assert 0.0 < walking["qp_share"] < walking["controller_share"] < 1.0
     assert labels["queries"] == 3 and labels["ms_per_query_median"] > 0.0
     refused = subprocess.run([*command, "--robot", "curi"], capture_output=True, text=True, timeout=120)

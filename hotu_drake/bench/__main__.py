@@ -13,7 +13,7 @@ python -m hotu_drake.bench train    [--robot NAME] [--motions M ...] [--workers 
                                     [--algo dail|amp|ase|pmp]
 python -m hotu_drake.bench readers  [--input FILE ...] [--repeats N]
 python -m hotu_drake.bench clips    [--motions M ...] [--input FILE ...] [--robots NAME ...] [--markdown]
-python -m hotu_drake.bench teacher  [--robot NAME] [--seconds S] [--queries N]
+python -m hotu_drake.bench teacher  [--robot NAME] [--seconds S] [--repeats N] [--queries N]
 python -m hotu_drake.bench pushes   [--robots NAME ...] [--momenta KG_M_S ...] [--markdown]
 python -m hotu_drake.bench performs [--robots NAME ...] [--motions M ...] [--input FILE ...] [--seeds N]
                                     [--starts N] [--hands full|none] [--markdown]
@@ -404,8 +404,9 @@ def _teacher(args) -> int:
         raise InputError(f"--robot: no whole_body_walk_{args.robot} scenario (shipped: {', '.join(walking)})")
     check_number(args.seconds, "--seconds", low=0.1, high=600.0, unit="s")
     check_number(args.queries, "--queries", low=1, high=10000, integer=True)
+    check_number(args.repeats, "--repeats", low=1, high=100, integer=True)
     pin_to_one_core()
-    walking = walking_cost(args.robot, args.seconds)
+    walking = walking_cost(args.robot, args.seconds, args.repeats)
     print(json.dumps(walking), file=sys.stderr, flush=True)
     labels = label_cost(args.robot, args.queries)
     print(json.dumps(labels), file=sys.stderr, flush=True)
@@ -485,6 +486,7 @@ def main(argv: list[str] | None = None) -> int:
     teacher = sub.add_parser("teacher", help="the whole-body controller walking a robot, and one label query's cost")
     teacher.add_argument("--robot", default="h1", help="a robot with a shipped whole_body_walk_<robot> scenario")
     teacher.add_argument("--seconds", type=float, default=10.0, help="simulated seconds of walking")
+    teacher.add_argument("--repeats", type=int, default=5, help="walks timed (the middle one reported)")
     teacher.add_argument("--queries", type=int, default=100, help="teacher_action queries timed in Imitation-v0")
     pushes = sub.add_parser("pushes", help="cubes thrown at robots standing and walking under the controller")
     pushes.add_argument("--robots", nargs="+", default=["udh", "naviai", "h1", "walker", "bruce"])

@@ -12,9 +12,10 @@ brought back along the plan, not merely pulled to where the clip is.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
-from pydrake.common.eigen_geometry import Quaternion
-from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.math import RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.planning import ZmpPlanner
 from pydrake.trajectories import PiecewisePolynomial
@@ -24,7 +25,7 @@ from hotu_drake.embodiment import Embodiment
 from hotu_drake.motion.clip import MotionClip, lifts
 from hotu_drake.motion.playback import ClipPlayback
 from hotu_drake.motion.synthesis import smooth
-from hotu_drake.rotations import heading_yaw, quat_to_matrix, rot_z
+from hotu_drake.rotations import heading_yaw, quat_multiply, quat_to_matrix, rot_z
 
 GRAVITY = 9.81
 PRESSURE_SMOOTHING = 0.05  # s: the clip's CoM acceleration averaged over this before it becomes a ZMP path
@@ -66,19 +67,22 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def _convex_hull(points: np.ndarray) -> np.ndarray:
     """The corners (counter-clockwise) of the convex hull of 2-D `points` (monotone chain)."""
-    points = np.unique(np.round(points, 9), axis=0)
-    if len(points) < 3:
-        return points
+    ordered = sorted(set(map(tuple, np.round(points, 9).tolist())))  # distinct, by x then y
+    if len(ordered) < 3:
+        return np.array(ordered, float).reshape(-1, 2)
 
-    def half(ordered):
+    def half(ordered):  # in Python floats: a numpy call per point cost a fifth of a control step
         chain = []
-        for point in ordered:
-            while len(chain) >= 2 and _cross(chain[-1] - chain[-2], point - chain[-2]) <= 0.0:
+        for x, y in ordered:
+            while len(chain) >= 2:
+                (ax, ay), (bx, by) = chain[-2], chain[-1]
+                if (bx - ax) * (y - ay) - (by - ay) * (x - ax) > 0.0:
+                    break
                 chain.pop()
-            chain.append(point)
+            chain.append((x, y))
         return chain[:-1]
 
-    return np.array(half(points) + half(points[::-1]))
+    return np.array(half(ordered) + half(ordered[::-1]))
 
 
 def into_support(point: np.ndarray, support: np.ndarray) -> np.ndarray:
@@ -243,8 +247,10 @@ class ClipPlan:
         self._root = plant.GetBodyByName(embodiment.spec.root.name, model)
         # The floating root's velocities (its joint's: angular, then linear, in the world), and all the clip sets.
         self._root_velocities = np.zeros(0, int)
+        self._root_positions = np.zeros(0, int)  # its quaternion (w x y z) and position in the plant's positions
         if embodiment.floating_base:
             self._root_velocities = self._root.floating_velocities_start_in_v() + np.arange(6)
+            self._root_positions = self._root.floating_positions_start() + np.arange(7)
         self._clip_velocities = np.r_[self._joint_velocities, self._root_velocities]
         self.period = (clip.num_frames - 1) / clip.fps
         self._step = Planar()  # what one pass of a loop does to the root: turn, then shift
@@ -256,6 +262,10 @@ class ClipPlan:
         self._velocity_cache: dict[float, np.ndarray] = {}  # `velocities` at the last few times asked
         self.contacts = {name: clip.contact(name).astype(bool) for name in clip.contact_names}
         self._placements = [Planar()]  # `placement` of each pass so far
+        self._to_plan_maps: dict[int, tuple[Planar, Planar]] = {}  # per pass, into the plan and back (`_to_plan`)
+        self._pass_turns: dict[int, np.ndarray] = {}  # `_pass_turn`
+        self._last_frame = (np.nan, 0)  # `frame`'s last time and answer
+        self._identity_back = Planar().inverse()  # the first pass's way back (as `Planar.inverse` gives it)
         self._feet = {
             f"{side}_foot": plant.GetBodyByName(embodiment.key_bodies[f"{side}_foot"], model)
             for side in ("left", "right")
@@ -287,7 +297,7 @@ class ClipPlan:
         """The pass (0, 1, ...) of a looping clip at `time`, and the clip time within it."""
         if not self.loop or self.period <= 0.0:
             return 0, min(max(time, 0.0), self.period)
-        index = int(np.floor(max(time, 0.0) / self.period))
+        index = math.floor(max(time, 0.0) / self.period)
         return index, time - index * self.period
 
     def placement(self, index: int) -> Planar:
@@ -296,20 +306,29 @@ class ClipPlan:
             self._placements.append(self._step @ self._placements[-1])
         return self._placements[index]
 
+    def _pass_turn(self, index: int) -> np.ndarray:
+        """`placement(index)`'s rotation as a unit quaternion (w x y z)."""
+        turn = self._pass_turns.get(index)
+        if turn is None:
+            turn = self._pass_turns[index] = RotationMatrix(self.placement(index).rotation).ToQuaternion().wxyz()
+        return turn
+
     def set_reference(self, context, time: float) -> None:
-        """Set `context` (of the plan's plant) to the clip's state at `time`."""
+        """Set `context` (of the plan's plant) to the clip's state at `time`:
+        its positions and velocities in one call (the root's pose composed
+        with the pass's placement here, not through `SetFreeBodyPose`: a
+        fifteenth of the control step)."""
         index, clip_time = self.pass_at(time)
-        positions, velocities = self.plant.GetPositions(context), self.plant.GetVelocities(context)
+        plant = self.plant
+        positions, velocities = plant.GetPositions(context), plant.GetVelocities(context)
         positions[self._joint_positions] = self.playback.lerp(self.clip.joint_positions, clip_time)
         velocities[self._clip_velocities] = self.velocities(time)[self._clip_velocities]
-        self.plant.SetPositions(context, positions)
-        self.plant.SetVelocities(context, velocities)
-        if not self.embodiment.floating_base:
-            return
-        quaternion, position = self.playback.root_pose_at(clip_time)
-        placement = self.placement(index)
-        pose = RigidTransform(RotationMatrix(placement.rotation), placement.shift)
-        self.plant.SetFreeBodyPose(context, self._root, pose @ RigidTransform(Quaternion(quaternion), position))
+        if self.embodiment.floating_base:  # the root's quaternion (w x y z), then its position
+            quaternion, position = self.playback.root_pose_at(clip_time)
+            placement = self.placement(index)
+            positions[self._root_positions[:4]] = quat_multiply(self._pass_turn(index), quaternion)
+            positions[self._root_positions[4:]] = placement.rotation @ position + placement.shift
+        plant.SetPositionsAndVelocities(context, np.concatenate([positions, velocities]))
 
     def velocities(self, time: float) -> np.ndarray:
         """The plant's generalized velocities in the clip's state at `time`
@@ -346,9 +365,12 @@ class ClipPlan:
         a 30 fps clip) takes the later, whatever its last bits: Python's round
         takes the even one, and a time one bit either side of the half flipped
         a foot's contact (49/60 s gave frame 24, 0.8166666666666668 s 25)."""
+        if time == self._last_frame[0]:  # asked some eight times a control step
+            return self._last_frame[1]
         _, clip_time = self.pass_at(time)
-        frame = int(np.floor(clip_time * self.clip.fps + 0.5 + HALF_FRAME_SLACK))
-        return min(max(frame, 0), self.clip.num_frames - 1)
+        frame = min(max(math.floor(clip_time * self.clip.fps + 0.5 + HALF_FRAME_SLACK), 0), self.clip.num_frames - 1)
+        self._last_frame = (time, frame)
+        return frame
 
     def _frames_to_landing(self, flags: np.ndarray, frame: int) -> int:
         """Frames from `frame` until `flags` is next down (a loop's next pass
@@ -487,19 +509,32 @@ class ClipPlan:
         index, clip_time = self.pass_at(time)
         if not self.loop or index == 0:
             return Planar(), clip_time
-        return self.placement(1) @ self.placement(index).inverse(), clip_time + self.period
+        return self._pass_to_plan(index)[0], clip_time + self.period
+
+    def _pass_to_plan(self, index: int) -> tuple[Planar, Planar]:
+        """Pass `index` (1 or later) of a loop mapped into the planned pass, and back (`_to_plan`)."""
+        maps = self._to_plan_maps.get(index)
+        if maps is None:
+            to_plan = self.placement(1) @ self.placement(index).inverse()
+            maps = self._to_plan_maps[index] = (to_plan, to_plan.inverse())
+        return maps
+
+    def _from_plan(self, time: float) -> tuple[Planar, float]:
+        """The map from the planned pass into the world at `time` (`_to_plan`'s inverse), and the plan's time."""
+        index, clip_time = self.pass_at(time)
+        if not self.loop or index == 0:
+            return self._identity_back, clip_time
+        return self._pass_to_plan(index)[1], clip_time + self.period
 
     def com_reference(self, time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The clip's CoM position, velocity and acceleration (world) at `time`."""
-        to_plan, at = self._to_plan(time)
-        back = to_plan.inverse()
+        back, at = self._from_plan(time)
         position, velocity, acceleration = interp_rows(at, self.com_times, self._com_rows).reshape(3, 3)
         return back.point(position), back.rotation @ velocity, back.rotation @ acceleration
 
     def planned_com(self, time: float) -> tuple[np.ndarray, np.ndarray]:
         """The ZMP plan's nominal horizontal CoM position and velocity (world, (2,) each) at `time`."""
-        to_plan, at = self._to_plan(time)
-        back = to_plan.inverse()
+        back, at = self._from_plan(time)
         x, y, x_rate, y_rate = interp_rows(at, self._nominal_times, self._nominal)
         position, velocity = np.array([x, y, 0.0]), np.array([x_rate, y_rate, 0.0])
         return back.point(position)[:2], (back.rotation @ velocity)[:2]

@@ -29,7 +29,7 @@ import numpy as np
 import osqp
 import scipy.sparse as sparse
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.multibody.tree import JacobianWrtVariable, ModelInstanceIndex
+from pydrake.multibody.tree import JacobianWrtVariable, JointIndex, ModelInstanceIndex
 
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.spec import SIDES
@@ -145,6 +145,25 @@ def sole_corners(embodiment: Embodiment, link: str) -> np.ndarray:
     return points[points[:, 2] < points[:, 2].min() + 0.01]
 
 
+def _tree_structure(plant: MultibodyPlant, soles: dict[str, Sole]) -> tuple[np.ndarray, np.ndarray]:
+    """Where the mass matrix (nv, nv) and the soles' corners' Jacobians (C,
+    nv, a row per corner) can be nonzero, from the kinematic tree: two
+    velocities share an entry of M when their joints move a body in common
+    (one lies on the other's path to the world), and a corner's Jacobian
+    has a column for each velocity whose joint moves its foot."""
+    moved = [set() for _ in range(plant.num_velocities())]  # per velocity, the bodies its joint moves
+    for index in range(plant.num_joints()):
+        joint = plant.get_joint(JointIndex(index))
+        if joint.num_velocities() == 0:
+            continue
+        bodies = {int(body) for body in plant.GetBodiesKinematicallyAffectedBy([joint.index()])}
+        for velocity in range(joint.velocity_start(), joint.velocity_start() + joint.num_velocities()):
+            moved[velocity] = bodies
+    mass = np.array([[bool(mine & theirs) for theirs in moved] for mine in moved])
+    feet = [int(sole.body.index()) for sole in soles.values() for _ in sole.corners]
+    return mass, np.array([[foot in bodies for bodies in moved] for foot in feet], bool).reshape(-1, len(moved))
+
+
 @dataclass
 class Solution:
     accelerations: np.ndarray  # (nv,)
@@ -188,23 +207,40 @@ class WholeBodyQp:
             for row, normal in enumerate(faces):
                 pyramid[len(faces) * k + row, nv + 3 * k : nv + 3 * k + 2] = normal
                 pyramid[len(faces) * k + row, nv + 3 * k + 2] = -reach
-        # The constraint matrix, dense: its first `_rows` rows set at each step, the rest fixed.
-        self._constraints = np.vstack([np.ones((self._rows, n)), pyramid, np.eye(n)[nv:]])
+        # The constraint matrix, dense: its first `_rows` rows set at each step, the rest fixed. Its sparsity is
+        # the kinematic tree's: a row of M has no entry between two joints on different branches, a corner's
+        # Jacobian none for a joint that does not move its foot. Set up dense (H1's: twice the entries), the
+        # control step took 15% longer (BENCHMARKS.md, twenty-first session).
+        self._constraints = np.vstack([np.zeros((self._rows, n)), pyramid, np.eye(n)[nv:]])
         self._lifting = slice(self._rows - self.corners, self._rows)  # the corners' height rows (vdot only)
-        self._constraints[self._lifting, nv:] = 0.0
-        constraints = self._constraints
-        hessian = np.zeros((n, n))
-        hessian[:nv, :nv], hessian[nv:, nv:] = 1.0, np.eye(forces)
-        self._a_pattern = _Pattern(constraints != 0.0)
-        self._p_pattern = _Pattern(np.triu(hessian) != 0.0)
+        moves, joints_moving = _tree_structure(plant, soles)
+        dynamics = np.hstack([moves, np.repeat(joints_moving, 3, axis=0).T])  # where [M, -J'] can be nonzero
+        mask = self._constraints != 0.0
+        mask[: len(self.floating)] = dynamics[self.floating]
+        mask[len(self.floating) : self._lifting.start] = dynamics[self.actuated]
+        mask[self._lifting, :nv] = joints_moving
+        self._a_pattern = _Pattern(mask)
+        self._by_row = np.r_[self.floating, self.actuated]  # the dynamics' rows: the floating base's, the actuated
+        # The cost's Hessian: the accelerations' block dense (the CoM's Jacobian spans every joint), the forces'
+        # a constant diagonal. Its upper triangle in CSC order: the block's (`_p_pattern`), then that diagonal.
+        hessian = np.eye(n)
+        hessian[:nv, :nv] = 1.0
+        self._p_pattern = _Pattern(np.triu(np.ones((nv, nv), bool)))
+        self._regularization, self._force_hessian = REGULARIZATION * np.eye(nv), np.full(forces, FORCE_WEIGHT)
         self._lower = np.r_[np.zeros(self._rows), np.full(len(pyramid), -INFINITY), np.zeros(forces)]
         self._upper = np.r_[np.zeros(self._rows), np.zeros(len(pyramid)), np.zeros(forces)]
         self._lower[self._lifting], self._upper[self._lifting] = -INFINITY, INFINITY  # active only when lifting
         # Polishing sharpens the contact forces' active set; with no soles there is none to sharpen (and OSQP
         # would say so on stdout at every step).
         settings = SETTINGS | ({} if soles else {"polishing": False})
+        constraints = self._constraints.copy()  # the rows set at each step at 1 where they can be nonzero
+        constraints[: self._rows][mask[: self._rows]] = 1.0
         self._solver = _Workspace(
-            self._p_pattern.matrix(np.eye(n)), self._a_pattern.matrix(constraints), self._lower, self._upper, settings
+            _Pattern(np.triu(hessian) != 0.0).matrix(np.eye(n)),
+            self._a_pattern.matrix(constraints),
+            self._lower,
+            self._upper,
+            settings,
         )
         self._guess = np.zeros(n)
         # Each sole's corners among all the soles' (C in all): per-sole flags spread over them (`_by_corner`).
@@ -248,48 +284,54 @@ class WholeBodyQp:
         ]
         return np.concatenate([np.zeros(0), *heights])
 
-    def solve(self, context, tasks: list[Task], planted: dict, lifting: dict | None = None) -> Solution:
+    def solve(
+        self,
+        context,
+        tasks: list[Task],
+        planted: dict,
+        lifting: dict | None = None,
+        dynamics: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> Solution:
         """The accelerations, sole forces and torques that best meet `tasks`
         with the soles `planted` (by name: True, or which corners, (K,) bools)
         held on the floor, and the corners `lifting` (by name, (K,) bools)
-        free to lift but not to sink, at the plant state in `context`."""
-        plant, nv = self.plant, self.nv
-        mass = plant.CalcMassMatrix(context)
-        h = plant.CalcBiasTerm(context) - plant.CalcGravityGeneralizedForces(context)
+        free to lift but not to sink, at the plant state in `context`
+        (`dynamics`: its mass matrix and C(q, v) v, if the caller has them)."""
+        plant, nv, floating, dynamic_rows = self.plant, self.nv, len(self.floating), self._lifting.start
+        mass, coriolis = dynamics or (plant.CalcMassMatrix(context), plant.CalcBiasTerm(context))
+        h = coriolis - plant.CalcGravityGeneralizedForces(context)
         jacobian, bias = self.contact_jacobians(context)
-        # (M vdot + h - J' f): the generalized forces the actuators must supply, row by row.
-        rows = np.hstack([mass, -jacobian.T])
-        actuated = rows[self.actuated]
+        velocity = jacobian @ plant.GetVelocities(context)  # each corner's (3C,)
+        # (M vdot + h - J' f): the generalized forces the actuators must supply, the floating rows, then the actuated.
         constraints = self._constraints
-        actuated_rows = slice(len(self.floating), self._lifting.start)
-        constraints[: len(self.floating)], constraints[actuated_rows] = rows[self.floating], actuated
+        constraints[:dynamic_rows, :nv], constraints[:dynamic_rows, nv:] = mass[self._by_row], -jacobian.T[self._by_row]
         constraints[self._lifting, :nv] = jacobian[2::3]
         down = self._by_corner(planted)
-        floating, limits, bounds = len(self.floating), self._limits, len(self._lower) - 3 * self.corners
+        limits, bounds = self._limits, len(self._lower) - 3 * self.corners
         lower, upper = self._lower.copy(), self._upper.copy()
         lower[:floating] = upper[:floating] = -h[self.floating]
-        lower[actuated_rows] = -limits - h[self.actuated]
-        upper[actuated_rows] = limits - h[self.actuated]
+        lower[floating:dynamic_rows] = -limits - h[self.actuated]
+        upper[floating:dynamic_rows] = limits - h[self.actuated]
         if lifting:  # J_z vdot >= -(kp z + kd zdot) - Jdot_z v
-            rate = (jacobian @ plant.GetVelocities(context))[2::3]
-            least = -(LIFT_STIFFNESS * self._heights(context) + LIFT_DAMPING * rate) - bias[2::3]
+            least = -(LIFT_STIFFNESS * self._heights(context) + LIFT_DAMPING * velocity[2::3]) - bias[2::3]
             lower[self._lifting] = np.where(self._by_corner(lifting), least, -INFINITY)
         on = np.repeat(down, 3)  # a planted corner's force is free but for f_z >= 0; one in the air is zero
         lower[bounds:], upper[bounds:] = np.where(on, -INFINITY, 0.0), np.where(on, INFINITY, 0.0)
         lower[bounds + 2 :: 3] = 0.0
-        n = self.n
-        hessian, gradient = np.zeros((n, n)), np.zeros(n)
-        hessian[:nv, :nv] += REGULARIZATION * np.eye(nv)
-        hessian[nv:, nv:] += FORCE_WEIGHT * np.eye(n - nv)
-        contact_weight = np.repeat(np.where(down, CONTACT_WEIGHT, 0.0), 3)
-        slip = -SLIP_DAMPING * (jacobian @ plant.GetVelocities(context))  # a planted corner's, against its velocity
-        for task in [*tasks, Task(jacobian, bias, slip, contact_weight)]:
-            weight = task.weight if np.ndim(task.weight) == 0 else np.asarray(task.weight, float)[:, None]
-            weighted = task.jacobian * weight
-            hessian[:nv, :nv] += weighted.T @ task.jacobian
-            gradient[:nv] += weighted.T @ (task.bias - task.target)
+        # The tasks' rows stacked, a planted corner's last (its acceleration against its velocity: a sole that
+        # slides is braked): sum_i w_i |J_i vdot + b_i - a_i|^2 as one product.
+        tasks = [
+            *tasks,
+            Task(jacobian, bias, -SLIP_DAMPING * velocity, np.repeat(np.where(down, CONTACT_WEIGHT, 0.0), 3)),
+        ]
+        stacked = np.vstack([task.jacobian for task in tasks])
+        weighted = stacked.T * np.concatenate([np.full(task.target.shape, task.weight) for task in tasks])
+        hessian = weighted @ stacked + self._regularization
+        gradient = np.zeros(self.n)
+        gradient[:nv] = weighted @ np.concatenate([task.bias - task.target for task in tasks])
         solver = self._solver
-        solver.update(self._p_pattern.values(hessian), self._a_pattern.values(constraints), gradient, lower, upper)
+        hessian_values = np.concatenate([self._p_pattern.values(hessian), self._force_hessian])
+        solver.update(hessian_values, self._a_pattern.values(constraints), gradient, lower, upper)
         x = solver.solve()
         success = x is not None
         if success:
@@ -298,13 +340,13 @@ class WholeBodyQp:
             x = self._guess
             solver.warm_start(x=self._guess)
         vdot, f = x[:nv], x[nv:]
-        torques = actuated @ x + h[self.actuated]
+        torques = constraints[floating:dynamic_rows] @ x + h[self.actuated]
         forces, start = {}, 0
         for name, sole in self.soles.items():
             count = len(sole.corners)
             forces[name] = f[3 * start : 3 * (start + count)].reshape(count, 3)
             start += count
-        return Solution(vdot, forces, np.clip(torques, -self._limits, self._limits), success)
+        return Solution(vdot, forces, np.minimum(np.maximum(torques, -self._limits), self._limits), success)
 
 
 class _Workspace:

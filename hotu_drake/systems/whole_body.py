@@ -220,10 +220,17 @@ class WholeBodyController(LeafSystem):
             raise RuntimeError(f"{embodiment.name}: actuator order differs from the spec's joint order")
         self._q, self._v = actuated_state_indices(plant, self._model, embodiment.joint_names)
         self._actuated_v = self._v - plant.num_positions()  # the joints' rows of vdot
+        # The floating base's linear velocities (its joint's: angular, then linear, in the world): `_com_rows_from`.
+        self._base_linear, self._mass = None, plant.CalcTotalMass(self._context)
+        if embodiment.floating_base:
+            root = plant.GetBodyByName(embodiment.spec.root.name, self._model)
+            self._base_linear = root.floating_velocities_start_in_v() + np.arange(3, 6)
         # A swing task asking a foot whose roll is its leg's to be level and at its sideways place asks the
         # hip's roll for both, and the compromise landed H1's feet 8-11 cm off (its walk drifting sideways).
         self._roll_follows_leg = soles_rolling_with_legs(plant, self._model, embodiment, self._soles)
         self._line_soles = {name: sole.is_line for name, sole in self._soles.items()}
+        # Each corner of each sole: its side of the sole (across it, from its middle).
+        self._across = {name: sole.corners[:, 1] - sole.corners[:, 1].mean() for name, sole in self._soles.items()}
         on_lines = bool(self._soles) and all(self._line_soles.values())
         self._footing_easing = LINE_FOOTING_EASING if on_lines else FOOTING_EASING
         self._on_lines = on_lines
@@ -340,11 +347,8 @@ class WholeBodyController(LeafSystem):
         start = perf_counter()
         plant, emb = self._plant, self.embodiment
         plant.SetPositionsAndVelocities(self._context, x)
-        world, kv = plant.world_frame(), JacobianWrtVariable.kV
-        self._com_rows = (  # the CoM's Jacobian and Jdot v at this state: for its task and `_check_prediction`
-            plant.CalcJacobianCenterOfMassTranslationalVelocity(self._context, kv, world, world),
-            plant.CalcBiasCenterOfMassTranslationalAcceleration(self._context, kv, world, world),
-        )
+        dynamics = plant.CalcMassMatrix(self._context), plant.CalcBiasTerm(self._context)  # M and C(q, v) v
+        self._com_rows = self._com_rows_from(*dynamics)  # for the CoM's task and `_check_prediction`
         self.plan.set_reference(self._reference, time)
         self._reference_accelerations = self._accelerations_at(time)
         # Every body's spatial acceleration in the reference (world frame), for the body tasks' feed-forward.
@@ -358,7 +362,7 @@ class WholeBodyController(LeafSystem):
         tasks = self.tasks(time, planted)
         held, lifting = self.contacts(planted, pushing)
         solving = perf_counter()
-        solution = self.qp.solve(self._context, tasks, held, lifting)
+        solution = self.qp.solve(self._context, tasks, held, lifting, dynamics)
         self.timings["qp"] += perf_counter() - solving
         if not solution.success and self.last is not None:
             self.timings["failures"] += 1
@@ -375,10 +379,26 @@ class WholeBodyController(LeafSystem):
             + dt * dt * mean_square * a
             + (solution.torques + emb.kd * (v + dt * mean_step * a)) / emb.kp
         )
-        self.last_action = np.clip(self._scaling.to_action(targets), -1.0, 1.0)
+        self.last_action = np.minimum(np.maximum(self._scaling.to_action(targets), -1.0), 1.0)
         self.timings["act"] += perf_counter() - start
         self.timings["calls"] += 1
         return self.last_action
+
+    def _com_rows_from(self, mass: np.ndarray, coriolis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The CoM's Jacobian (3, nv) and Jdot v (world) at the state in the
+        controller's context, whose mass matrix and C(q, v) v are given. On a
+        floating base, the base's linear rows of both over the mass: those of
+        M map v to the whole body's linear momentum, the mass times the CoM's
+        velocity, and those of C v are its rate with no acceleration (equal
+        to rounding to Drake's CoM Jacobian and bias, which cost a thirteenth
+        of H1's control step). On another base, Drake's."""
+        if self._base_linear is None:
+            plant, context, world, kv = self._plant, self._context, self._plant.world_frame(), JacobianWrtVariable.kV
+            return (
+                plant.CalcJacobianCenterOfMassTranslationalVelocity(context, kv, world, world),
+                plant.CalcBiasCenterOfMassTranslationalAcceleration(context, kv, world, world),
+            )
+        return mass[self._base_linear] / self._mass, coriolis[self._base_linear] / self._mass
 
     @property
     def predictions_checked(self) -> int:
@@ -490,8 +510,9 @@ class WholeBodyController(LeafSystem):
                 continue
             pose = plant.EvalBodyPoseInWorld(reference, sole.body)
             heights = pose.multiply(sole.corners.T)[2]
-            lowest_edge = heights < heights.min() + TOE_BAND
-            if heights.min() < TOE_DOWN and np.ptp(heights) > (PLANTED_TOE_PITCH if down else TOE_PITCH):
+            low = heights.min()
+            lowest_edge = heights < low + TOE_BAND
+            if low < TOE_DOWN and heights.max() - low > (PLANTED_TOE_PITCH if down else TOE_PITCH):
                 out[name] = lowest_edge
                 continue
             if down:
@@ -602,7 +623,7 @@ class WholeBodyController(LeafSystem):
             if not self._rolls_on_edges[name]:
                 continue
             rotation = plant.EvalBodyPoseInWorld(context, sole.body).rotation().matrix()
-            across = sole.corners[:, 1] - sole.corners[:, 1].mean()  # each corner's side of the sole
+            across = self._across[name]
             tilt = rotation[2, 1]  # the sole's left side up (+) or down (-)
             if abs(tilt) > np.sin(ROLLED):
                 held[name] = across * tilt < 0.0  # the lower edge
@@ -740,7 +761,7 @@ class WholeBodyController(LeafSystem):
             if planted.get(name)
         ]
         if offsets:  # eased toward the new footing: a stance handed to a foot that landed elsewhere is no jump
-            footing = np.append(np.mean(offsets, axis=0)[:2], 0.0)
+            footing = np.append((sum(offsets[1:], offsets[0]) / len(offsets))[:2], 0.0)  # np.mean's, for two
             easing = CATCH_FOOTING_EASING if time < self._caught_until else self._footing_easing
             self._shift += (footing - self._shift) * (1.0 - np.exp(-self.period / easing))
         return self._shift
@@ -790,7 +811,7 @@ class WholeBodyController(LeafSystem):
             + stiffness * (goal_position - pose.translation())
             + damping * (goal_velocity - velocity.translational())
         )
-        return jacobian, np.concatenate([bias.rotational(), bias.translational()]), np.concatenate([angular, linear])
+        return jacobian, bias.get_coeffs(), np.concatenate([angular, linear])  # coefficients: rotational first
 
 
 def AddWholeBodyController(
