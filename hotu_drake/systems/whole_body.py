@@ -27,7 +27,7 @@ import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
-from pydrake.systems.framework import BasicVector, Context, DiagramBuilder, DiscreteValues, LeafSystem
+from pydrake.systems.framework import Context, DiagramBuilder, DiscreteValues, LeafSystem
 
 from hotu_drake.control.catch_step import (
     CATCH_FOOTING_EASING,
@@ -289,15 +289,16 @@ class WholeBodyController(LeafSystem):
         self._prediction_errors: list[np.ndarray] = []
         n = len(embodiment.joint_names)
         self._state = self.DeclareVectorInputPort("state", plant.num_multibody_states())
-        standing = np.r_[embodiment.standing_pose, np.zeros(n), np.zeros(n)]
-        self.DeclareDiscreteState(standing)
+        # The PD's desired state [q*; 0] and the QP's torques: each a discrete state group, each an output port.
+        self._desired_state = self.DeclareDiscreteState(np.r_[embodiment.standing_pose, np.zeros(n)])
+        self._torques = self.DeclareDiscreteState(n)
         # Once at the start (before the plant's first step), then every period after it, a moment before the
         # plant's step at that time: a discrete plant's state already holds where its last step took it, and
         # events at one time all read the state before them, so acting with the plant would act a period late.
         self.DeclareInitializationDiscreteUpdateEvent(self._Update)
         self.DeclarePeriodicDiscreteUpdateEvent(control_period, control_period - CONTROL_LEAD, self._Update)
-        self.DeclareVectorOutputPort("desired_state", 2 * n, self._CalcDesiredState, {self.xd_ticket()})
-        self.DeclareVectorOutputPort("torques", n, self._CalcTorques, {self.xd_ticket()})
+        self.DeclareStateOutputPort("desired_state", self._desired_state)
+        self.DeclareStateOutputPort("torques", self._torques)
 
     def catch_steps(self) -> list[list]:
         """The catch steps taken since `reset`, as a report lists them: [start time (s, rounded), foot]."""
@@ -318,14 +319,6 @@ class WholeBodyController(LeafSystem):
         """The feet's contact corners (per contact name) the controller stands on."""
         return self._soles
 
-    def _CalcDesiredState(self, context: Context, output: BasicVector) -> None:
-        n = len(self.embodiment.joint_names)
-        output.SetFromVector(context.get_discrete_state_vector().value()[: 2 * n])
-
-    def _CalcTorques(self, context: Context, output: BasicVector) -> None:
-        n = len(self.embodiment.joint_names)
-        output.SetFromVector(context.get_discrete_state_vector().value()[2 * n :])
-
     def _Update(self, context: Context, discrete_state: DiscreteValues) -> None:
         now = context.get_time()
         if now == 0.0:  # a run (re)starts: nothing carried from an earlier one
@@ -334,7 +327,8 @@ class WholeBodyController(LeafSystem):
         action = self.act(self._state.Eval(context), self.start_time + time)
         self._check_prediction(self.start_time + time)
         targets = self._scaling.to_targets(action)
-        discrete_state.set_value(np.concatenate([targets, np.zeros_like(targets), self.last.torques]))
+        discrete_state.get_mutable_vector(self._desired_state).SetFromVector(np.r_[targets, np.zeros_like(targets)])
+        discrete_state.get_mutable_vector(self._torques).SetFromVector(self.last.torques)
 
     def act(self, x: np.ndarray, time: float) -> np.ndarray:
         """The action (normalised PD targets, in [-1, 1], as a policy's) for
