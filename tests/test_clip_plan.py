@@ -157,7 +157,8 @@ def test_the_plans_velocities_are_those_its_reference_state_has():
 def test_a_loops_root_is_its_clip_pose_placed_by_its_pass():
     """`set_reference` composes the root's pose with its pass's placement
     itself: on a turning walk's first four passes, the pelvis stands where
-    Drake's own `SetFreeBodyPose` of the placed clip pose puts it."""
+    Drake's own `SetFreeBodyPose` of the placed clip pose puts it, with the
+    same positions (its quaternion's w kept positive)."""
     from pydrake.common.eigen_geometry import Quaternion
     from pydrake.math import RigidTransform, RotationMatrix
 
@@ -173,24 +174,27 @@ def test_a_loops_root_is_its_clip_pose_placed_by_its_pass():
         plant.SetFreeBodyPose(expected, plan._root, placed @ RigidTransform(Quaternion(quaternion), position))
         got, want = (plant.EvalBodyPoseInWorld(c, plan._root).GetAsMatrix4() for c in (context, expected))
         np.testing.assert_allclose(got, want, atol=1e-12)
+        np.testing.assert_allclose(plant.GetPositions(context), plant.GetPositions(expected), atol=1e-12)
     assert index == 3
 
 
 def test_the_convex_hull_is_the_corners_qhull_finds_counter_clockwise():
     """The support's hull (monotone chain, in Python floats) against
-    scipy's qhull on random point sets: the same corners, counter-clockwise."""
+    scipy's qhull on random point sets and on a grid (repeated points,
+    points along its edges): the same corners, counter-clockwise."""
     from scipy.spatial import ConvexHull
 
     from hotu_drake.control.clip_plan import _convex_hull
 
     rng = np.random.default_rng(3)
-    for count in (3, 5, 8, 20):
-        for _ in range(20):
-            points = rng.uniform(-0.2, 0.2, (count, 2))
-            hull = _convex_hull(points)
-            qhull = points[ConvexHull(points).vertices]  # counter-clockwise in 2-D
-            assert sorted(map(tuple, np.round(hull, 9))) == sorted(map(tuple, np.round(qhull, 9)))
-            edges = np.roll(hull, -1, axis=0) - hull
-            turns = edges[:, 0] * np.roll(edges, -1, axis=0)[:, 1] - edges[:, 1] * np.roll(edges, -1, axis=0)[:, 0]
-            assert np.all(turns > 0.0)
+    grid = np.array([[x, y] for x in (0.0, 0.1, 0.2) for y in (-0.1, 0.0, 0.1)])  # collinear runs on every edge
+    sets = [rng.uniform(-0.2, 0.2, (count, 2)) for count in (3, 5, 8, 20) for _ in range(20)]
+    sets += [grid, np.vstack([grid, grid[::2]]), grid[rng.permutation(9)], np.vstack([grid[:3], grid[6:]])]
+    for points in sets:
+        hull = _convex_hull(points)
+        qhull = points[ConvexHull(points).vertices]  # counter-clockwise in 2-D, no point inside an edge
+        assert sorted(map(tuple, np.round(hull, 9))) == sorted(map(tuple, np.round(qhull, 9)))
+        edges = np.roll(hull, -1, axis=0) - hull
+        turns = edges[:, 0] * np.roll(edges, -1, axis=0)[:, 1] - edges[:, 1] * np.roll(edges, -1, axis=0)[:, 0]
+        assert np.all(turns > 0.0)
     np.testing.assert_array_equal(_convex_hull(np.array([[0.1, 0.2], [0.1, 0.2]])), [[0.1, 0.2]])

@@ -15,10 +15,11 @@ import numpy as np
 
 def walking_cost(robot: str, seconds: float, repeats: int = 1) -> dict:
     """`robot`'s shipped `whole_body_walk_<robot>` for `seconds`, `repeats`
-    times (each on a new diagram): the middle run by real-time factor (its
-    real-time factor, the controller's and the QP's shares of the wall time,
-    whether it fell) and every run's real-time factor. On a shared machine
-    one run's factor moves by a tenth from run to run."""
+    times (each on a new diagram): the middle run by real-time factor (the
+    faster of the middle two of an even count) with its controller's and
+    QP's shares of the wall time and whether it fell, and every run's
+    real-time factor. On a shared machine one run's factor moves by a
+    tenth from run to run."""
     runs = sorted((_walking_once(robot, seconds) for _ in range(repeats)), key=lambda run: run["realtime_factor"])
     return {**runs[len(runs) // 2], "realtime_factors": [run["realtime_factor"] for run in runs]}
 

@@ -71,9 +71,9 @@ def _convex_hull(points: np.ndarray) -> np.ndarray:
     if len(ordered) < 3:
         return np.array(ordered, float).reshape(-1, 2)
 
-    def half(ordered):  # in Python floats: a numpy call per point cost a fifth of a control step
+    def half(points):  # in Python floats: a numpy call per point cost a fifth of a control step
         chain = []
-        for x, y in ordered:
+        for x, y in points:
             while len(chain) >= 2:
                 (ax, ay), (bx, by) = chain[-2], chain[-1]
                 if (bx - ax) * (y - ay) - (by - ay) * (x - ax) > 0.0:
@@ -231,6 +231,11 @@ class Planar:
         return self.rotation @ x + self.shift
 
 
+IDENTITY = (
+    Planar()
+)  # the map of a loop's first pass, and of a clip that does not loop (no `Planar` is changed once made)
+
+
 class ClipPlan:
     """A clip of `embodiment` as the controller's reference, on `plant` (a
     plant holding that embodiment as `model`; `context`, one of its
@@ -262,10 +267,9 @@ class ClipPlan:
         self._velocity_cache: dict[float, np.ndarray] = {}  # `velocities` at the last few times asked
         self.contacts = {name: clip.contact(name).astype(bool) for name in clip.contact_names}
         self._placements = [Planar()]  # `placement` of each pass so far
-        self._to_plan_maps: dict[int, tuple[Planar, Planar]] = {}  # per pass, into the plan and back (`_to_plan`)
+        self._pass_maps: dict[int, tuple[Planar, Planar]] = {}  # per pass, into the plan and back (`_plan_maps`)
         self._pass_turns: dict[int, np.ndarray] = {}  # `_pass_turn`
         self._last_frame = (np.nan, 0)  # `frame`'s last time and answer
-        self._identity_back = Planar().inverse()  # the first pass's way back (as `Planar.inverse` gives it)
         self._feet = {
             f"{side}_foot": plant.GetBodyByName(embodiment.key_bodies[f"{side}_foot"], model)
             for side in ("left", "right")
@@ -326,7 +330,8 @@ class ClipPlan:
         if self.embodiment.floating_base:  # the root's quaternion (w x y z), then its position
             quaternion, position = self.playback.root_pose_at(clip_time)
             placement = self.placement(index)
-            positions[self._root_positions[:4]] = quat_multiply(self._pass_turn(index), quaternion)
+            turned = quat_multiply(self._pass_turn(index), quaternion)
+            positions[self._root_positions[:4]] = turned if turned[0] >= 0.0 else -turned  # w >= 0, as Drake sets it
             positions[self._root_positions[4:]] = placement.rotation @ position + placement.shift
         plant.SetPositionsAndVelocities(context, np.concatenate([positions, velocities]))
 
@@ -501,40 +506,30 @@ class ClipPlan:
             [np.r_[com_plan.value(t).ravel(), comd_plan.value(t).ravel()] for t in self._nominal_times]
         )
 
-    def _to_plan(self, time: float) -> tuple[Planar, float]:
-        """The map from the world at `time` into the planned pass, and the
-        plan's time: a loop's first pass is the plan's first (planned from
-        the clip's own first frame, where the robot starts), every later one
-        its middle pass (which follows a pass, as they do)."""
+    def _plan_maps(self, time: float) -> tuple[Planar, Planar, float]:
+        """The map from the world at `time` into the planned pass, its
+        inverse, and the plan's time: a loop's first pass is the plan's
+        first (planned from the clip's own first frame, where the robot
+        starts), every later one its middle pass (which follows a pass, as
+        they do). Kept per pass: asked three times a control step."""
         index, clip_time = self.pass_at(time)
         if not self.loop or index == 0:
-            return Planar(), clip_time
-        return self._pass_to_plan(index)[0], clip_time + self.period
-
-    def _pass_to_plan(self, index: int) -> tuple[Planar, Planar]:
-        """Pass `index` (1 or later) of a loop mapped into the planned pass, and back (`_to_plan`)."""
-        maps = self._to_plan_maps.get(index)
+            return IDENTITY, IDENTITY, clip_time
+        maps = self._pass_maps.get(index)
         if maps is None:
             to_plan = self.placement(1) @ self.placement(index).inverse()
-            maps = self._to_plan_maps[index] = (to_plan, to_plan.inverse())
-        return maps
-
-    def _from_plan(self, time: float) -> tuple[Planar, float]:
-        """The map from the planned pass into the world at `time` (`_to_plan`'s inverse), and the plan's time."""
-        index, clip_time = self.pass_at(time)
-        if not self.loop or index == 0:
-            return self._identity_back, clip_time
-        return self._pass_to_plan(index)[1], clip_time + self.period
+            maps = self._pass_maps[index] = (to_plan, to_plan.inverse())
+        return *maps, clip_time + self.period
 
     def com_reference(self, time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The clip's CoM position, velocity and acceleration (world) at `time`."""
-        back, at = self._from_plan(time)
+        _, back, at = self._plan_maps(time)
         position, velocity, acceleration = interp_rows(at, self.com_times, self._com_rows).reshape(3, 3)
         return back.point(position), back.rotation @ velocity, back.rotation @ acceleration
 
     def planned_com(self, time: float) -> tuple[np.ndarray, np.ndarray]:
         """The ZMP plan's nominal horizontal CoM position and velocity (world, (2,) each) at `time`."""
-        back, at = self._from_plan(time)
+        _, back, at = self._plan_maps(time)
         x, y, x_rate, y_rate = interp_rows(at, self._nominal_times, self._nominal)
         position, velocity = np.array([x, y, 0.0]), np.array([x_rate, y_rate, 0.0])
         return back.point(position)[:2], (back.rotation @ velocity)[:2]
@@ -542,7 +537,7 @@ class ClipPlan:
     def com_acceleration_for(self, time: float, com: np.ndarray, com_velocity: np.ndarray) -> np.ndarray:
         """The horizontal CoM acceleration (2,) the ZMP plan's LQR asks of a
         robot whose CoM is at `com` moving at `com_velocity`, at `time`."""
-        to_plan, at = self._to_plan(time)
+        to_plan, _, at = self._plan_maps(time)
         position, velocity = to_plan.point(com), to_plan.rotation @ com_velocity
         acceleration = self.planner.ComputeOptimalCoMdd(at, np.concatenate([position[:2], velocity[:2]]))
         return to_plan.rotation[:2, :2].T @ acceleration

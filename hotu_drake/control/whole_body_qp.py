@@ -207,20 +207,19 @@ class WholeBodyQp:
             for row, normal in enumerate(faces):
                 pyramid[len(faces) * k + row, nv + 3 * k : nv + 3 * k + 2] = normal
                 pyramid[len(faces) * k + row, nv + 3 * k + 2] = -reach
-        # The constraint matrix, dense: its first `_rows` rows set at each step, the rest fixed. Its sparsity is
-        # the kinematic tree's: a row of M has no entry between two joints on different branches, a corner's
-        # Jacobian none for a joint that does not move its foot. Set up dense (H1's: twice the entries), the
-        # control step took 15% longer (BENCHMARKS.md, twenty-first session).
+        # The constraint matrix as a numpy array: its first `_rows` rows set at each step, the rest fixed. OSQP
+        # holds only the entries that can be nonzero, the kinematic tree's: a row of M has none between two joints
+        # on different branches, a corner's Jacobian none for a joint that does not move its foot. With those rows
+        # whole (H1's: twice the entries), the control step took 15% longer (BENCHMARKS.md, twenty-first session).
         self._constraints = np.vstack([np.zeros((self._rows, n)), pyramid, np.eye(n)[nv:]])
         self._lifting = slice(self._rows - self.corners, self._rows)  # the corners' height rows (vdot only)
-        moves, joints_moving = _tree_structure(plant, soles)
-        dynamics = np.hstack([moves, np.repeat(joints_moving, 3, axis=0).T])  # where [M, -J'] can be nonzero
+        self._dynamics_rows = np.r_[self.floating, self.actuated]  # the dynamics' rows, floating then actuated
+        mass_pattern, corner_columns = _tree_structure(plant, soles)
+        dynamics = np.hstack([mass_pattern, np.repeat(corner_columns, 3, axis=0).T])  # where [M, -J'] can be nonzero
         mask = self._constraints != 0.0
-        mask[: len(self.floating)] = dynamics[self.floating]
-        mask[len(self.floating) : self._lifting.start] = dynamics[self.actuated]
-        mask[self._lifting, :nv] = joints_moving
+        mask[: self._lifting.start] = dynamics[self._dynamics_rows]
+        mask[self._lifting, :nv] = corner_columns
         self._a_pattern = _Pattern(mask)
-        self._by_row = np.r_[self.floating, self.actuated]  # the dynamics' rows: the floating base's, the actuated
         # The cost's Hessian: the accelerations' block dense (the CoM's Jacobian spans every joint), the forces'
         # a constant diagonal. Its upper triangle in CSC order: the block's (`_p_pattern`), then that diagonal.
         hessian = np.eye(n)
@@ -298,13 +297,18 @@ class WholeBodyQp:
         free to lift but not to sink, at the plant state in `context`
         (`dynamics`: its mass matrix and C(q, v) v, if the caller has them)."""
         plant, nv, floating, dynamic_rows = self.plant, self.nv, len(self.floating), self._lifting.start
-        mass, coriolis = dynamics or (plant.CalcMassMatrix(context), plant.CalcBiasTerm(context))
+        if dynamics is None:
+            dynamics = plant.CalcMassMatrix(context), plant.CalcBiasTerm(context)
+        mass, coriolis = dynamics
         h = coriolis - plant.CalcGravityGeneralizedForces(context)
         jacobian, bias = self.contact_jacobians(context)
         velocity = jacobian @ plant.GetVelocities(context)  # each corner's (3C,)
         # (M vdot + h - J' f): the generalized forces the actuators must supply, the floating rows, then the actuated.
         constraints = self._constraints
-        constraints[:dynamic_rows, :nv], constraints[:dynamic_rows, nv:] = mass[self._by_row], -jacobian.T[self._by_row]
+        constraints[:dynamic_rows, :nv], constraints[:dynamic_rows, nv:] = (
+            mass[self._dynamics_rows],
+            -jacobian.T[self._dynamics_rows],
+        )
         constraints[self._lifting, :nv] = jacobian[2::3]
         down = self._by_corner(planted)
         limits, bounds = self._limits, len(self._lower) - 3 * self.corners
@@ -346,7 +350,7 @@ class WholeBodyQp:
             count = len(sole.corners)
             forces[name] = f[3 * start : 3 * (start + count)].reshape(count, 3)
             start += count
-        return Solution(vdot, forces, np.minimum(np.maximum(torques, -self._limits), self._limits), success)
+        return Solution(vdot, forces, np.clip(torques, -self._limits, self._limits), success)
 
 
 class _Workspace:

@@ -220,7 +220,10 @@ class WholeBodyController(LeafSystem):
             raise RuntimeError(f"{embodiment.name}: actuator order differs from the spec's joint order")
         self._q, self._v = actuated_state_indices(plant, self._model, embodiment.joint_names)
         self._actuated_v = self._v - plant.num_positions()  # the joints' rows of vdot
-        # The floating base's linear velocities (its joint's: angular, then linear, in the world): `_com_rows_from`.
+        # The floating base's linear velocities (its joint's: angular, then linear, in the world): `_com_rows_from`,
+        # whose rows of M are the whole plant's linear momentum only while the plant holds the robot alone.
+        if plant.num_bodies() != len(plant.GetBodyIndices(self._model)) + 1:
+            raise RuntimeError(f"{embodiment.name}: the controller's plant holds more than the robot")
         self._base_linear, self._mass = None, plant.CalcTotalMass(self._context)
         if embodiment.floating_base:
             root = plant.GetBodyByName(embodiment.spec.root.name, self._model)
@@ -327,8 +330,8 @@ class WholeBodyController(LeafSystem):
         action = self.act(self._state.Eval(context), self.start_time + time)
         self._check_prediction(self.start_time + time)
         targets = self._scaling.to_targets(action)
-        discrete_state.get_mutable_vector(self._desired_state).SetFromVector(np.r_[targets, np.zeros_like(targets)])
-        discrete_state.get_mutable_vector(self._torques).SetFromVector(self.last.torques)
+        discrete_state.set_value(self._desired_state, np.r_[targets, np.zeros_like(targets)])
+        discrete_state.set_value(self._torques, self.last.torques)
 
     def act(self, x: np.ndarray, time: float) -> np.ndarray:
         """The action (normalised PD targets, in [-1, 1], as a policy's) for
@@ -373,7 +376,7 @@ class WholeBodyController(LeafSystem):
             + dt * dt * mean_square * a
             + (solution.torques + emb.kd * (v + dt * mean_step * a)) / emb.kp
         )
-        self.last_action = np.minimum(np.maximum(self._scaling.to_action(targets), -1.0), 1.0)
+        self.last_action = np.clip(self._scaling.to_action(targets), -1.0, 1.0)
         self.timings["act"] += perf_counter() - start
         self.timings["calls"] += 1
         return self.last_action
@@ -385,7 +388,8 @@ class WholeBodyController(LeafSystem):
         M map v to the whole body's linear momentum, the mass times the CoM's
         velocity, and those of C v are its rate with no acceleration (equal
         to rounding to Drake's CoM Jacobian and bias, which cost a thirteenth
-        of H1's control step). On another base, Drake's."""
+        of H1's control step). On another base (CURI's), Drake's own, read
+        from the context (the arguments unused)."""
         if self._base_linear is None:
             plant, context, world, kv = self._plant, self._context, self._plant.world_frame(), JacobianWrtVariable.kV
             return (
@@ -755,7 +759,7 @@ class WholeBodyController(LeafSystem):
             if planted.get(name)
         ]
         if offsets:  # eased toward the new footing: a stance handed to a foot that landed elsewhere is no jump
-            footing = np.append((sum(offsets[1:], offsets[0]) / len(offsets))[:2], 0.0)  # np.mean's, for two
+            footing = np.append((sum(offsets) / len(offsets))[:2], 0.0)  # their mean (np.mean's, for one or two)
             easing = CATCH_FOOTING_EASING if time < self._caught_until else self._footing_easing
             self._shift += (footing - self._shift) * (1.0 - np.exp(-self.period / easing))
         return self._shift
