@@ -194,27 +194,17 @@ def matrix_to_quat(r: np.ndarray) -> np.ndarray:
 def quat_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """The Hamilton product a b (w x y z; arrays of quaternions, broadcast)."""
     a, b = np.asarray(a, float), np.asarray(b, float)
-    if a.shape == b.shape == (4,):  # one pair (the controller's reference, every step): in Python floats
-        (aw, ax, ay, az), (bw, bx, by, bz) = a.tolist(), b.tolist()
-        return np.array(
-            [
-                aw * bw - ax * bx - ay * by - az * bz,
-                aw * bx + ax * bw + ay * bz - az * by,
-                aw * by - ax * bz + ay * bw + az * bx,
-                aw * bz + ax * by - ay * bx + az * bw,
-            ]
-        )
-    aw, ax, ay, az = np.moveaxis(a, -1, 0)
-    bw, bx, by, bz = np.moveaxis(b, -1, 0)
-    return np.stack(
-        [
-            aw * bw - ax * bx - ay * by - az * bz,
-            aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-        ],
-        -1,
+    one_pair = a.shape == b.shape == (4,)  # the controller's reference, every step: in Python floats, faster
+    (aw, ax, ay, az), (bw, bx, by, bz) = (
+        (a.tolist(), b.tolist()) if one_pair else (np.moveaxis(a, -1, 0), np.moveaxis(b, -1, 0))
     )
+    product = [
+        aw * bw - ax * bx - ay * by - az * bz,
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+    ]
+    return np.array(product) if one_pair else np.stack(product, -1)
 
 
 def quat_conjugate(q: np.ndarray) -> np.ndarray:

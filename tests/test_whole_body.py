@@ -85,14 +85,11 @@ def test_the_qps_sparsity_holds_every_entry_of_the_dynamics_and_the_corners(robo
     at random states, every nonzero of the rows it sets at each step (M,
     the corners' Jacobians) falls where the pattern has room, and the
     pattern leaves out a share of those rows (legs apart, arms apart)."""
-    from hotu_drake.control.whole_body_qp import WholeBodyQp, feet_soles
-
     for controller in _walk_controller_at_random_states(robot, seed=1):
-        plant, context, emb = controller._plant, controller._context, controller.embodiment
-        qp = WholeBodyQp(plant, feet_soles(plant, emb), emb.effort_limits)
+        qp = controller.qp
         pattern = np.zeros(qp._constraints.shape, bool)
         pattern[qp._a_pattern.rows, qp._a_pattern.columns] = True
-        qp.solve(context, [], {name: True for name in qp.soles})
+        qp.solve(controller._context, [], {name: True for name in qp.soles})
         assert not np.any((qp._constraints != 0.0) & ~pattern)
     assert pattern[: qp._lifting.stop].mean() < 0.8
 

@@ -25,6 +25,7 @@ def walking_cost(robot: str, seconds: float, repeats: int = 1) -> dict:
 
 
 def _walking_once(robot: str, seconds: float) -> dict:
+    """One walk of `walking_cost`, timed from the diagram built."""
     from hotu_drake.diagrams import build_simulation
     from hotu_drake.scenario import load_scenario
 

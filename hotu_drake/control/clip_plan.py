@@ -231,9 +231,8 @@ class Planar:
         return self.rotation @ x + self.shift
 
 
-IDENTITY = (
-    Planar()
-)  # the map of a loop's first pass, and of a clip that does not loop (no `Planar` is changed once made)
+# The map of a loop's first pass, and of a clip that does not loop (no `Planar` is changed once made).
+IDENTITY = Planar()
 
 
 class ClipPlan:
