@@ -302,3 +302,42 @@ def test_a_reference_start_puts_the_box_in_front_of_the_robot():
         ahead = root.rotation().matrix().T @ (inner.object_position() - root.translation())
         assert ahead[0] > 0.4, ahead
     env.close()
+
+
+def test_the_phase_observation_and_the_looped_reference_say_where_the_clip_is():
+    """`phase_observation` ends the observation with the sine and cosine of
+    the clip's phase (a looped clip's cycle; the clip's own at that time in
+    `clip_observation`); a teacher's environment reports the pelvis' and
+    the looped reference's root, the latter going on past the clip's end."""
+    options = {"robot": "h1", "hands": "none", "motions": WALK, "control_rate": 60.0, "teacher": True}
+    env = gym.make("hotu_drake/Imitation-v0", phase_observation=True, loop=True, reference_start_time=0.0, **options)
+    plain = gym.make("hotu_drake/Imitation-v0", **options)
+    inner = env.unwrapped
+    duration = inner.clips[0].duration
+    assert env.observation_space.shape[0] == plain.observation_space.shape[0] + 2
+    observation, info = env.reset(seed=0, options={"init": "reference", "clip": 0, "time": duration / 4})
+    np.testing.assert_allclose(observation[-2:], [1.0, 0.0], atol=1e-6)  # a quarter of the cycle
+    np.testing.assert_allclose(inner.clip_observation(0, duration / 2)[-2:], [0.0, -1.0], atol=1e-6)
+    start = info["reference_root_xy"].copy()
+    observation, _, _, _, info = env.step(info["teacher_action"])
+    angle = 2.0 * np.pi * (0.25 + inner.control_period / duration)
+    np.testing.assert_allclose(observation[-2:], [np.sin(angle), np.cos(angle)], atol=1e-6)
+    assert np.linalg.norm(info["reference_root_xy"] - start) > 0.005  # the walk's root moves on
+    # After a default start the reference start time does not apply: no clip, a zero phase.
+    observation, info = env.reset(seed=0, options={"init": "default"})
+    np.testing.assert_array_equal(observation[-2:], [0.0, 0.0])
+    # A reference start with no time given begins at `reference_start_time`, dropped from up to 5 cm.
+    heights = []
+    for seed in (3, 4):
+        observation, _ = env.reset(seed=seed, options={"init": "reference"})
+        np.testing.assert_allclose(observation[-2:], [0.0, 1.0], atol=1e-6)
+        heights.append(observation[0] - inner.clips[0].root_position[0, 2])
+    assert all(0.0 <= h <= 0.05 for h in heights) and abs(heights[0] - heights[1]) > 1e-4, heights
+    # The looped reference a whole cycle on is the first pass moved by the walk's travel.
+    plan = inner._teacher().plan
+    cycle = plan.root_position(1.25 * duration)[:2] - plan.root_position(0.25 * duration)[:2]
+    assert np.linalg.norm(cycle) > 0.5  # the clip walks more than half a metre a cycle
+    _, info = plain.reset(seed=0, options={"init": "reference", "clip": 0, "time": 0.0})
+    assert "reference_root_xy" in info and "root_xy" in info
+    env.close()
+    plain.close()

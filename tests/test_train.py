@@ -152,3 +152,29 @@ def test_reach_measures_where_each_latent_takes_the_hands_and_pelvis(bruce_run, 
     assert np.all((hands > 0.05) & (hands < 0.8)), hands
     code = run_cli(main, ["reach", str(tmp_path)])
     assert code == 2 and "run:" in capsys.readouterr().err
+
+
+def test_a_dagger_run_learns_from_the_teacher_and_reports_it_beside_the_teacher(tmp_path, capsys):
+    """`--algo dagger` on H1's looped walk: labelled iterations in the
+    metrics, and a report of 10 s episodes from the clip's start for the
+    policy, the teacher and the robot standing (the teacher walks, the
+    robot standing does not)."""
+    config = tmp_path / "tiny.yaml"
+    config.write_text(
+        "environment: {loop: true}\nppo: {horizon: 60}\nnetworks: {policy_hidden: [32, 32], critic_hidden: [8]}\n"
+        "teacher: {updates: 5, batch_size: 32}\ntorch_threads: 1\n"
+    )
+    out = tmp_path / "run"
+    argv = ["pretrain", "--robot", "h1", "--motions", "walk", "--algo", "dagger", "--workers", "1"]
+    assert main([*argv, "--steps", "120", "--out", str(out), "--config", str(config), "--eval-episodes", "1"]) == 0
+    lines = [json.loads(line) for line in (out / "metrics.jsonl").read_text().splitlines()]
+    assert [line["iteration"] for line in lines] == [1, 2] and lines[-1]["labelled"] == 120
+    assert lines[0]["beta"] == 1.0 and lines[0]["label_loss_visited"] > lines[1]["label_loss_visited"]
+    evaluation = json.loads((out / "report.json").read_text())["evaluation"]
+    assert set(evaluation) >= {"policy", "teacher", "standing"}
+    teacher, standing = evaluation["teacher"], evaluation["standing"]
+    assert teacher["fall_rate"] == 0.0 and teacher["mean_episode_seconds"] == pytest.approx(10.0)
+    assert teacher["travel_ratio"] > 0.6 and standing["travel_ratio"] < 0.1, (teacher, standing)
+    assert read_checkpoint(out / "checkpoint.pt", kind="training")["state"]["labelled"]["size"] == 120
+    headline = json.loads(capsys.readouterr().err.strip().splitlines()[-1])
+    assert {"policy_fall_rate", "teacher_travel_ratio", "standing_travel_ratio"} <= set(headline)

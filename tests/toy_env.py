@@ -156,3 +156,40 @@ def interaction_demonstrations(count: int = 20, frames: int = 40, seed: int = 0)
             offset = offset - step * offset / max(np.linalg.norm(offset), 1e-9)
         sequences.append(np.array(rows, dtype=np.float32))
     return sequences
+
+
+TEACHER_GAIN = 4.0  # the toy teacher's action per unit of distance to the target
+
+
+class ToyTeacherEnv(ToyAmpEnv):
+    """The toy with a teacher, as `Imitation-v0` with `teacher=True` has
+    one: `info["teacher_action"]` drives every coordinate to its target
+    (a proportional law, saturating at the action's bounds), and the info
+    says where the "root" (the first two coordinates) is and where the
+    reference's is (the target, reached in `REFERENCE_SECONDS`)."""
+
+    REFERENCE_SECONDS = 1.0
+
+    def _info(self) -> dict:
+        info = super()._info()
+        elapsed = self.steps / CONTROL_RATE
+        share = min(elapsed / self.REFERENCE_SECONDS, 1.0)
+        info["time"] = elapsed
+        info["teacher_action"] = np.clip(TEACHER_GAIN * (TARGET - self.position), -1.0, 1.0).astype(np.float32)
+        info["root_xy"] = self.position[:2].copy()
+        info["reference_root_xy"] = (1.0 - share) * self.start[:2] + share * TARGET[:2]
+        return info
+
+    start = np.zeros(4)
+
+    def reset(self, *, seed=None, options=None):
+        observation, _ = super().reset(seed=seed, options=options)
+        self.start = self.position.copy()
+        return observation, self._info()
+
+
+def teacher_vector_env(num_envs: int = 4) -> gym.vector.VectorEnv:
+    return gym.vector.SyncVectorEnv(
+        [lambda: ToyTeacherEnv() for _ in range(num_envs)],
+        autoreset_mode=gym.vector.AutoresetMode.SAME_STEP,
+    )

@@ -52,7 +52,8 @@ from hotu_drake.errors import InputError, check_choice, check_number
 from hotu_drake.io import check_output_path
 from hotu_drake.learning.agent import Agent
 from hotu_drake.learning.config import ALGORITHMS, TrainConfig, config_from_dict, load_config, preset
-from hotu_drake.learning.evaluation import behavior_report, behavior_summary
+from hotu_drake.learning.dagger import DAggerAgent
+from hotu_drake.learning.evaluation import behavior_report, behavior_summary, clone_report
 from hotu_drake.learning.trainer import RunFolder, run_record, train
 
 
@@ -133,7 +134,7 @@ def pretrain(args) -> int:
         folder.start(settings, config.to_dict())
     envs = run.vector_env(settings["workers"], args.ray)
     try:
-        agent = Agent(config, envs, run.demonstrations, action_offset=run.standing_action, seed=settings["seed"])
+        agent = make_agent(config, envs, run, settings["seed"])
         if args.resume:
             agent.load_state_dict(folder.checkpoint()["state"])
             counters = agent.counters
@@ -142,7 +143,9 @@ def pretrain(args) -> int:
                 file=sys.stderr,
             )
 
-        def style(stats: dict) -> dict:  # each part group's style reward
+        def style(stats: dict) -> dict:  # each part group's style reward, or a clone's label losses
+            if isinstance(agent, DAggerAgent):
+                return {key: stats[key] for key in ("label_loss_visited", "beta")}
             return {g.name: stats.get(f"style/{g.name}", float("nan")) for g in agent.groups}
 
         train(
@@ -161,6 +164,12 @@ def pretrain(args) -> int:
 
 
 BEHAVIOR_META = ("algo", "motions", "seed")  # what a behavior run's checkpoints record of its settings
+
+
+def make_agent(config: TrainConfig, envs, run, seed: int) -> Agent | DAggerAgent:
+    """The learner of `config.algo` over `envs` (a run's `RunEnvironments`: `run`)."""
+    learner = DAggerAgent if config.algo == "dagger" else Agent
+    return learner(config, envs, run.demonstrations, action_offset=run.standing_action, seed=seed)
 
 
 # -- evaluate ------------------------------------------------------------------------
@@ -199,7 +208,7 @@ class RestoredRun:
         run = self.run
         self.envs = run.vector_env(workers, evaluation=True)
         try:
-            agent = Agent(self.config, self.envs, run.demonstrations, action_offset=run.standing_action, seed=seed)
+            agent = make_agent(self.config, self.envs, run, seed)
             agent.load_state_dict(self.checkpoint["state"])
         except BaseException:
             self.envs.close()
@@ -214,7 +223,10 @@ def evaluate_run(folder: RunFolder | str | Path, episodes: int, seed: int, worke
     restored = RestoredRun(folder)
     envs, agent = restored.start(min(workers, episodes), seed)
     try:
-        report = behavior_report(agent, envs, restored.run.standing_action, episodes, seed)
+        if isinstance(agent, DAggerAgent):
+            report = clone_report(agent, envs, restored.run.standing_action, episodes, seed)
+        else:
+            report = behavior_report(agent, envs, restored.run.standing_action, episodes, seed)
     finally:
         envs.close()
     report = {**folder.settings(), **run_record(agent), **report}

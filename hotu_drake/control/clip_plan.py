@@ -334,6 +334,12 @@ class ClipPlan:
             positions[self._root_positions[4:]] = placement.rotation @ position + placement.shift
         plant.SetPositionsAndVelocities(context, np.concatenate([positions, velocities]))
 
+    def root_position(self, time: float) -> np.ndarray:
+        """The clip's root position (world) at `time`, a loop's pass placed."""
+        index, clip_time = self.pass_at(time)
+        placement = self.placement(index)
+        return placement.rotation @ self.playback.root_pose_at(clip_time)[1] + placement.shift
+
     def velocities(self, time: float) -> np.ndarray:
         """The plant's generalized velocities in the clip's state at `time`
         (those `set_reference` sets, with no context to set: the floating

@@ -40,6 +40,7 @@ from hotu_drake.scenario import LIMITS, ActionInput, InitialCondition, Scenario,
 
 log = logging.getLogger("hotu_drake.envs")
 MAX_AMP_HISTORY = 300  # frames (10 s at 30 Hz) of AMP observation kept per step
+PHASE_SIZE = 2  # `clip_phase`: the sine and cosine of where the episode is in its clip
 
 # The environments' own scenario, where no `scenario=` is given.
 DEFAULT_ROBOT, DEFAULT_HANDS = "h1", "none"
@@ -113,12 +114,21 @@ class DiagramEnv(gym.Env):
         drop_height: float = 0.05,
         termination_height: float = 0.5,
         teacher: bool = False,
+        phase_observation: bool = False,
+        loop: bool = False,
+        reference_start_time: float | None = None,
     ):
         """`scenario` as `environment_scenario` makes it; `embodiment`
         overrides its robot (e.g. a resized UDH). With `teacher`, every
         step's `info["teacher_action"]` is the whole-body controller's
-        action for the state the robot is in (`teacher_action`). Bad
-        keywords raise `InputError`."""
+        action for the state the robot is in (`teacher_action`). With
+        `phase_observation`, the observation ends with where the episode is
+        in its clip (`clip_phase`). With `loop`, the clips repeat (the
+        teacher's and the phase's; a walk's reference goes on past its
+        clip). A reference start begins at `reference_start_time` in its
+        clip (s; default anywhere), dropped from up to `drop_height` as a
+        default start is (evaluation episodes then differ). Bad keywords
+        raise `InputError`."""
         where = type(self).__name__
         amp_history = check_number(amp_history, "amp_history", where, low=1, high=MAX_AMP_HISTORY, integer=True)
         reference_init_probability = check_number(
@@ -127,6 +137,11 @@ class DiagramEnv(gym.Env):
         drop_height = check_number(drop_height, "drop_height", where, low=0.0, high=1.0, unit="m")
         termination_height = check_number(termination_height, "termination_height", where, low=0.0, high=1.0)
         self.teacher = check_bool(teacher, "teacher", where)
+        self.phase_observation = check_bool(phase_observation, "phase_observation", where)
+        self.loop = check_bool(loop, "loop", where)
+        if reference_start_time is not None:
+            check_number(reference_start_time, "reference_start_time", where, low=0.0, high=1e6, unit="s")
+        self.reference_start_time = reference_start_time
         if self.teacher and scenario.fixed_base:
             raise InputError(
                 "the teacher (the whole-body controller) needs the robot on its feet, not a fixed base",
@@ -174,19 +189,20 @@ class DiagramEnv(gym.Env):
         self.timings = EnvTimings()
         self.init_kind = "default"
         # The teacher: a whole-body controller per reference clip (None: the standing pose), built when first
-        # asked for; the episode's clip, its clip time at the start, and where its frame sits in the world.
+        # asked for. The episode's clip (None after a default start), its clip time at the start, and where the
+        # clip's frame sits in the world: the teacher's and the phase's.
         self._teachers: dict = {}
-        self._teacher_clip: int | None = None
-        self._teacher_start = 0.0
-        self._teacher_frame = RigidTransform()
+        self._episode_clip: int | None = None
+        self._episode_start = 0.0
+        self._episode_frame = RigidTransform()
 
     # -- what subclasses extend ------------------------------------------------
 
     def _observation_size(self) -> int:
-        return self._observer.observation_size
+        return self._observer.observation_size + (PHASE_SIZE if self.phase_observation else 0)
 
     def _extra_observation(self) -> np.ndarray:
-        return np.zeros(0)
+        return self.clip_phase() if self.phase_observation else np.zeros(0)
 
     def _place_task(self) -> None:
         """Put task objects at their episode's start (subclasses)."""
@@ -206,14 +222,19 @@ class DiagramEnv(gym.Env):
         if kind is None:
             kind = "reference" if self.np_random.random() < self.reference_init_probability else "default"
         history = None
-        self._teacher_clip, self._teacher_start, self._teacher_frame = None, 0.0, RigidTransform()
+        self._episode_clip, self._episode_start, self._episode_frame = None, 0.0, RigidTransform()
         if kind == "reference":
             index = options.get("clip", int(self.np_random.integers(len(self.clips))))
             clip = self.clips[index]
-            start = options.get("time", float(self.np_random.uniform(0.0, max(clip.duration - 0.1, 0.0))))
-            self._set_reference_state(self._playbacks[index], start)
-            self._teacher_clip, self._teacher_start = index, start
-            self._teacher_frame = alignment(self._playbacks[index], start)
+            start, drop = options.get("time", self.reference_start_time), 0.0
+            if start is None:
+                start = float(self.np_random.uniform(0.0, max(clip.duration - 0.1, 0.0)))
+            elif "time" not in options:  # from the fixed start, dropped as a standing start is
+                drop = float(self.np_random.uniform(0.0, self.drop_height))
+            start = min(float(start), clip.duration)
+            self._set_reference_state(self._playbacks[index], start, drop)
+            self._episode_clip, self._episode_start = index, start
+            self._episode_frame = alignment(self._playbacks[index], start)
             # The AMP history before the start is the clip's own past frames.
             past = start - self.control_period * np.arange(self.amp_history - 1, 0, -1)
             history = [self.clip_amp_frame(index, t) for t in past]
@@ -319,7 +340,10 @@ class DiagramEnv(gym.Env):
         `time_`, aligned as reference starts are (for behavior cloning)."""
         self.clip_amp_frame(clip_index, time_)  # sets the scratch contexts to that state
         robot = self._observer.GetOutputPort("observation").Eval(self._scratch_observer)
-        return np.concatenate([robot, self._extra_observation()]).astype(np.float32)
+        extra = self._extra_observation()
+        if self.phase_observation:  # the clip's phase at that time, not the episode's
+            extra[:PHASE_SIZE] = self._phase_at(clip_index, time_)
+        return np.concatenate([robot, extra]).astype(np.float32)
 
     def amp_layout(self) -> dict[str, list[str]]:
         """The column labels of each key of `info["amp"]` (`learning.parts.AmpLayout`)."""
@@ -354,9 +378,13 @@ class DiagramEnv(gym.Env):
         sim = self.sim
         set_robot_state(sim.plant, self._plant_context, sim.model, self.embodiment, drop_height=drop)
 
-    def _set_reference_state(self, playback: ClipPlayback, time_: float) -> None:
+    def _set_reference_state(self, playback: ClipPlayback, time_: float, drop: float = 0.0) -> None:
+        """The clip's state at `time_`, aligned, `drop` (m) above it (a floating base)."""
         sim = self.sim
         set_robot_state(sim.plant, self._plant_context, sim.model, self.embodiment, playback, time_, align=True)
+        if drop > 0.0 and self.embodiment.floating_base and not self.scenario.fixed_base:
+            pose = sim.plant.GetFreeBodyPose(self._plant_context, self._root)
+            sim.plant.SetFreeBodyPose(self._plant_context, self._root, RigidTransform([0.0, 0.0, drop]) @ pose)
 
     def _place_objects(self) -> None:
         """Free objects back at their configured poses (tasks then draw theirs)."""
@@ -370,9 +398,15 @@ class DiagramEnv(gym.Env):
         frames = np.asarray(self._history, dtype=np.float32)
         amp = {part: frames[:, s] for part, s in self.part_slices.items()}
         info = {"amp": amp, "time": self._context.get_time(), "init": self.init_kind}
+        info["root_xy"] = self.body_position("pelvis")[:2]
         if self.teacher:
             info["teacher_action"] = self.teacher_action().astype(np.float32)
+            info["reference_root_xy"] = self._teacher().plan.root_position(self._clip_time())[:2]
         return info
+
+    def _clip_time(self) -> float:
+        """The episode's clip time now (after a default start, the time since it)."""
+        return self._episode_start + self._context.get_time()
 
     # -- the teacher -----------------------------------------------------------
 
@@ -381,13 +415,12 @@ class DiagramEnv(gym.Env):
         from hotu_drake.control.clip_plan import standing_clip
         from hotu_drake.systems.whole_body import WholeBodyController
 
-        key = self._teacher_clip
+        key = self._episode_clip
         if key not in self._teachers:
             clip = self.clips[key] if key is not None else standing_clip(self.embodiment)
             step = self.scenario.time_step
-            self._teachers[key] = WholeBodyController(
-                self.embodiment, clip, self.control_period, False, None, 0.0, step
-            )
+            loop = self.loop and key is not None
+            self._teachers[key] = WholeBodyController(self.embodiment, clip, self.control_period, loop, None, 0.0, step)
         return self._teachers[key]
 
     def teacher_action(self) -> np.ndarray:
@@ -402,7 +435,7 @@ class DiagramEnv(gym.Env):
         plant, model, scratch = self.sim.plant, self.sim.model, self._scratch_plant
         plant.SetPositionsAndVelocities(scratch, model, plant.GetPositionsAndVelocities(self._plant_context, model))
         if self.embodiment.floating_base and not self.scenario.fixed_base:
-            back = self._teacher_frame.inverse()
+            back = self._episode_frame.inverse()
             pose = plant.GetFreeBodyPose(scratch, self._root)
             velocity = plant.EvalBodySpatialVelocityInWorld(scratch, self._root)
             turn = back.rotation().matrix()
@@ -411,7 +444,23 @@ class DiagramEnv(gym.Env):
                 scratch, self._root, SpatialVelocity(turn @ velocity.rotational(), turn @ velocity.translational())
             )
         state = plant.GetPositionsAndVelocities(scratch, model)
-        return self._teacher().act(state, self._teacher_start + self._context.get_time())
+        return self._teacher().act(state, self._clip_time())
+
+    def clip_phase(self, time_: float | None = None) -> np.ndarray:
+        """Where the episode is in its clip at the environment's `time_`
+        (default now), as the sine and cosine of an angle: a looped clip's
+        share of its cycle times 2 pi, another's share of its duration times
+        pi (so its start and end differ). Zeros after a default start (no
+        clip)."""
+        if self._episode_clip is None:
+            return np.zeros(PHASE_SIZE)
+        clip_time = self._clip_time() if time_ is None else self._episode_start + time_
+        return self._phase_at(self._episode_clip, clip_time)
+
+    def _phase_at(self, clip_index: int, clip_time: float) -> np.ndarray:
+        share = clip_time / max(self.clips[clip_index].duration, 1e-9)
+        angle = 2.0 * np.pi * (share % 1.0) if self.loop else np.pi * min(share, 1.0)
+        return np.array([np.sin(angle), np.cos(angle)])
 
     def pelvis_height(self) -> float:
         return self._fall.pelvis_height(self._plant_context)

@@ -30,6 +30,7 @@ from hotu_drake.learning.rollout import EnvSpec, make_vector_env
 from hotu_drake.learning.skill_config import TASKS, TRANSFER_TASKS, TWO_LEVEL, SkillConfig
 
 IMITATION = "hotu_drake/Imitation-v0"
+EVALUATION_SECONDS = 10.0  # a teacher-labelled run's evaluation episodes (the acceptance's 10 s)
 
 
 @dataclass
@@ -55,14 +56,22 @@ def imitation_run(settings: dict, config) -> RunEnvironments:
     env = config.environment
 
     def options(evaluation: bool) -> dict:
-        return {
+        made = {
             "robot": settings["robot"],
             "hands": settings["hands"],
             "motions": settings["motions"],
             "amp_history": env.amp_history,
             "termination_height": env.termination_height,
             "reference_init_probability": 0.0 if evaluation else env.reference_init_probability,
+            "control_rate": env.control_rate,
+            "teacher": env.teacher,
+            "phase_observation": env.phase_observation,
+            "loop": env.loop,
         }
+        if evaluation and env.teacher:  # each clip from its start, for EVALUATION_SECONDS
+            made |= {"reference_init_probability": 1.0, "reference_start_time": 0.0}
+            made["max_episode_steps"] = round(EVALUATION_SECONDS * env.control_rate)
+        return made
 
     made = gym.make(IMITATION, **options(False))
     try:

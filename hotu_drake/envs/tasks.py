@@ -148,7 +148,7 @@ class _ObjectTaskEnv(DiagramEnv):
         source.set_value(np.asarray(target, dtype=float))
 
     def _extra_observation(self) -> np.ndarray:
-        return self._goal_port.Eval(self._context)
+        return np.concatenate([super()._extra_observation(), self._goal_port.Eval(self._context)])
 
     def clip_interaction(self, clip_index: int, time_: float) -> np.ndarray:
         """s_I at reference clip `clip_index`'s state at `time_` (its own
@@ -164,7 +164,7 @@ class _ObjectTaskEnv(DiagramEnv):
         """The task observation at a reference clip's state (for behavior
         cloning): the robot's, then the goal at that frame if the clip
         carries a track of the object (zeros if not)."""
-        robot = super().clip_observation(clip_index, time_)[: self._observer.observation_size]
+        robot = super().clip_observation(clip_index, time_)[:-GOAL_SIZE]  # the robot's (and phase), not this goal
         goal = np.zeros(GOAL_SIZE)
         if self._track(self.clips[clip_index]) is not None:
             goal = self._goal_port.Eval(self._clip_frame(clip_index, time_))

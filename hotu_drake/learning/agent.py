@@ -35,7 +35,7 @@ from hotu_drake.learning.buffers import ReplayBuffer, to_arrays, to_tensors
 from hotu_drake.learning.config import TrainConfig
 from hotu_drake.learning.demonstrations import Demonstrations
 from hotu_drake.learning.latents import LatentSchedule, sample_sphere
-from hotu_drake.learning.networks import ActorCritic, PolicyConfig, StyleNetwork
+from hotu_drake.learning.networks import ActorCritic, StyleNetwork
 from hotu_drake.learning.parts import PartGroup, resolve_groups
 from hotu_drake.learning.ppo import PPO, PPOBatch
 from hotu_drake.learning.rollout import Decision, Rollout, Step
@@ -73,19 +73,10 @@ class Agent(BaseAgent):
         }
         for name, motions in self.group_motions.items():
             demonstrations.check_motions(motions, f"style.group_motions[{name}]")
-        observation_size = envs.single_observation_space.shape[0]
         action_size = envs.single_action_space.shape[0]
         latent = config.latent
         latent_sizes = {g.name: latent.size for g in self.groups} if latent.size else {}
-        offset = () if action_offset is None else tuple(float(a) for a in action_offset)
-        policy_config = PolicyConfig(
-            observation_size,
-            action_size,
-            latent_sizes,
-            config.networks.policy_hidden,
-            offset,
-            config.action.residual_scale,
-        )
+        policy_config = self.policy_config(action_offset, latent_sizes)
         self.model = ActorCritic(
             policy_config, config.networks.critic_hidden, self._action_std(action_size), config.action.learn_std
         )

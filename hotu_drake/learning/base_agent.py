@@ -28,7 +28,7 @@ import torch
 
 from hotu_drake.learning.buffers import EpisodeLog
 from hotu_drake.learning.logger import count_iteration
-from hotu_drake.learning.networks import ActorCritic
+from hotu_drake.learning.networks import ActorCritic, PolicyConfig
 from hotu_drake.learning.ppo import PPO, PPOBatch, gae, make_batch
 from hotu_drake.learning.rollout import Decision, Rollout, RolloutCollector, Step
 
@@ -53,6 +53,20 @@ class BaseAgent:
         self.episodes = EpisodeLog(self.num_envs)
         self.counters: dict = {"iteration": 0, "samples": 0, "episodes": 0, "falls": 0, "seconds": 0.0}
         self.collector: RolloutCollector | None = None
+
+    def policy_config(self, action_offset: np.ndarray | None, latent_sizes: dict[str, int]) -> PolicyConfig:
+        """The policy network's sizes for these environments and `config.networks`,
+        its actions around `action_offset` (the standing pose's; None: zeros)."""
+        networks = self.config.networks
+        return PolicyConfig(
+            self.envs.single_observation_space.shape[0],
+            self.envs.single_action_space.shape[0],
+            latent_sizes,
+            networks.policy_hidden,
+            () if action_offset is None else tuple(float(a) for a in action_offset),
+            self.config.action.residual_scale,
+            networks.policy_activation,
+        )
 
     def _reset_envs(self) -> None:
         """Start every environment afresh (also after a resume)."""

@@ -24,7 +24,7 @@ import yaml
 from hotu_drake.errors import InputError, check_choice, check_number
 from hotu_drake.learning.parts import TABLE_PARTS
 
-ALGORITHMS = ("dail", "amp", "ase", "pmp")
+ALGORITHMS = ("dail", "amp", "ase", "pmp", "dagger")
 GROUPINGS = ("default", "table", "whole")
 COMBINATIONS = ("product", "mean", "single")
 STYLE_REWARDS = ("amp", "log")
@@ -80,6 +80,7 @@ class ActionConfig:
 @dataclass
 class NetworkConfig:
     policy_hidden: tuple[int, ...] = (256, 128)
+    policy_activation: str = "relu"  # relu | elu
     critic_hidden: tuple[int, ...] = (256, 128)
     discriminator_hidden: tuple[int, ...] = (256, 128)  # [1024, 512] in the GPU references
 
@@ -148,10 +149,41 @@ class WarmStartConfig:
 
 
 @dataclass
+class TeacherConfig:
+    """Learning from the whole-body controller's actions (`dagger`): each
+    iteration collects with the teacher acting at a share `beta` of the
+    steps (1 for the first `teacher_iterations`, then `beta_decay` times
+    less each iteration) and the policy's mean at the rest, `noise` added
+    to what is executed (DART: states a little off the teacher's path);
+    every state is labelled with the teacher's action, kept, and the
+    policy regressed on `updates` minibatches drawn from everything kept."""
+
+    teacher_iterations: int = 2
+    # Per-episode mixing with 0.5 (the teacher gone after ten iterations) left H1's clone of the walk
+    # falling 2.2 s into its episodes from 20k to 170k samples (label loss on its states 0.23).
+    beta_decay: float = 0.97
+    # The teacher's own 10 s of H1's looped walk with this noise on every action: no fall in 6 without
+    # noise, 2 of 26 at 0.02, 6 of 26 at 0.04, 10 of 20 at 0.06. 0.03, between, is not measured alone.
+    noise: float = 0.03
+    updates: int = 60  # minibatches per iteration
+    # Each joint's weight in the regression: the inverse of its kept labels' variance ("variance"), or 1
+    # ("equal": the squared action error). In the teacher's own walk (H1) the legs' and torso's labels
+    # spread 0.01-0.07 and the arms' 0.12-0.35: with equal weights the arms would rule the loss.
+    joint_weights: str = "variance"
+    learning_rate: float = 1e-3
+    batch_size: int = 512
+    buffer_size: int = 300_000  # labelled states kept (the oldest dropped); 120 MB for H1
+
+
+@dataclass
 class EnvironmentConfig:
     """What the trainer asks of each environment (`Imitation-v0` keywords)."""
 
     reference_init_probability: float = 0.8  # reference state initialisation (AMP's share; not measured here)
+    control_rate: float = 30.0  # Hz; the teacher needs 60 (BENCHMARKS.md: at 30, H1 walks 10 s from 2 of 6 starts)
+    teacher: bool = False  # `info["teacher_action"]`: the whole-body controller's action (dagger)
+    phase_observation: bool = False  # the observation ends with the clip's phase
+    loop: bool = False  # the clips repeat (a walk goes on for the whole episode)
     termination_height: float = 0.5
     amp_history: int = 10
     # End an episode after `style_patience` steps under this combined style reward; 0: off (the
@@ -170,6 +202,7 @@ class TrainConfig:
     latent: LatentConfig = field(default_factory=LatentConfig)
     warm_start: WarmStartConfig = field(default_factory=WarmStartConfig)
     environment: EnvironmentConfig = field(default_factory=EnvironmentConfig)
+    teacher: TeacherConfig = field(default_factory=TeacherConfig)
     # w_g: the weight of a task environment's own reward next to the style reward (`train skill`'s
     # one-level methods, amp and pmp); 0 for behavior primitives, whose environment gives none.
     task_weight: float = 0.0
@@ -192,6 +225,7 @@ class TrainConfig:
         for part, value in self.action.part_std.items():
             check_choice(part, "action.part_std", TABLE_PARTS, where)
             check_number(value, f"action.part_std.{part}", where, low=1e-4, high=2.0)
+        check_choice(self.networks.policy_activation, "networks.policy_activation", ("relu", "elu"), where)
         check_choice(s.grouping, "style.grouping", GROUPINGS, where)
         check_choice(s.combine, "style.combine", COMBINATIONS, where)
         check_choice(s.reward, "style.reward", STYLE_REWARDS, where)
@@ -211,6 +245,18 @@ class TrainConfig:
         check_number(self.warm_start.observation_noise, "warm_start.observation_noise", where, low=0.0, high=10.0)
         env = self.environment
         check_number(env.amp_history, "environment.amp_history", where, low=1, high=300, integer=True)
+        check_number(env.control_rate, "environment.control_rate", where, low=1.0, high=1000.0)
+        t = self.teacher
+        check_number(t.teacher_iterations, "teacher.teacher_iterations", where, low=0, high=10**6, integer=True)
+        check_number(t.beta_decay, "teacher.beta_decay", where, low=0.0, high=1.0)
+        check_number(t.noise, "teacher.noise", where, low=0.0, high=1.0)
+        check_number(t.updates, "teacher.updates", where, low=1, high=100_000, integer=True)
+        check_choice(t.joint_weights, "teacher.joint_weights", ("variance", "equal"), where)
+        check_number(t.learning_rate, "teacher.learning_rate", where, low=0.0, high=1.0)
+        check_number(t.batch_size, "teacher.batch_size", where, low=1, high=1_000_000, integer=True)
+        check_number(t.buffer_size, "teacher.buffer_size", where, low=1, high=10**8, integer=True)
+        if self.algo == "dagger" and not env.teacher:
+            raise InputError("dagger learns from the teacher: environment.teacher must be true", where)
         check_number(env.style_termination, "environment.style_termination", where, low=0.0, high=1.0)
         check_number(env.style_patience, "environment.style_patience", where, low=1, high=10_000, integer=True)
         check_number(self.task_weight, "task_weight", where, low=0.0, high=100.0)
@@ -238,6 +284,14 @@ def preset(algo: str) -> TrainConfig:
         config.latent.size = 0
     elif algo == "ase":  # one whole-body discriminator with an encoder and a latent
         config.style.grouping, config.style.combine = "whole", "single"
+    elif algo == "dagger":  # the whole-body controller's actions, on the states the policy visits
+        config.latent.size = 0
+        config.environment.control_rate, config.environment.teacher = 60.0, True
+        config.environment.phase_observation, config.environment.reference_init_probability = True, 1.0
+        # On H1's walk, cloned from 36k labelled states: held-out R^2 of the legs' actions 0.9-1.0 with
+        # (512, 512, 256) ELU layers; (256, 128) not measured.
+        config.networks.policy_hidden = (512, 512, 256)
+        config.ppo.horizon = 600  # 1200 samples an iteration on two workers: the 60 updates then about a fifth of it
     return config
 
 

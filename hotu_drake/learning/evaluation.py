@@ -269,8 +269,11 @@ def behavior_report(agent, envs, standing: np.ndarray, episodes: int, seed: int)
 
 
 def behavior_summary(report: dict) -> dict:
-    """A behavior report's headline figures, next to standing's."""
+    """A behavior report's headline figures, next to standing's (and the teacher's, for a clone)."""
     policy, standing = report["evaluation"]["policy"], report["evaluation"]["standing"]
+    if "teacher" in report["evaluation"]:
+        keys = ("fall_rate", "mean_episode_seconds", "travel_ratio")
+        return {f"{who}_{k}": report["evaluation"][who][k] for who in ("policy", "teacher", "standing") for k in keys}
     return {
         "fall_rate": policy["fall_rate"],
         "normalized_return": round(policy["normalized_return"], 3),
@@ -307,3 +310,58 @@ def task_summary(report: dict) -> dict:
         "standing_success_rate": e["standing"]["success_rate"],
         "standing_normalized_return": round(e["standing"]["normalized_return"], 3),
     }
+
+
+InfoPolicy = Callable[[np.ndarray, dict], np.ndarray]
+
+
+def teacher_policy(observations: np.ndarray, info: dict) -> np.ndarray:
+    """The whole-body controller's actions (`info["teacher_action"]`), as an `InfoPolicy`."""
+    return np.asarray(info["teacher_action"], dtype=np.float32)
+
+
+def follow_clips(envs, policy: InfoPolicy, episodes: int = 20, seed: int = 0) -> dict:
+    """How `policy` (observations and the step's info to actions) performs
+    the clips over the first `episodes` episodes to end in `envs` (made
+    with `teacher=True`, so that each step's info has where the clip's
+    root is): the fall rate, the mean episode length (s, from
+    `info["time"]`), and the pelvis' horizontal travel over each episode
+    against the reference's over the same time (`travel_ratio`, the
+    mean of the episodes' ratios)."""
+    observations, info = envs.reset(seed=seed)
+    start = {key: np.array(info[key]) for key in ("root_xy", "reference_root_xy")}
+    falls, seconds, travel, reference = 0, [], [], []
+    while len(seconds) < episodes:
+        observations, _, terminated, truncated, info = envs.step(policy(observations, info))
+        for i in np.flatnonzero(terminated | truncated):
+            last = info["final_info"]
+            if len(seconds) < episodes:
+                falls += int(terminated[i])
+                seconds.append(float(last["time"][i]))
+                travel.append(float(np.linalg.norm(last["root_xy"][i] - start["root_xy"][i])))
+                reference.append(float(np.linalg.norm(last["reference_root_xy"][i] - start["reference_root_xy"][i])))
+            for key in start:
+                start[key][i] = info[key][i]
+    ratios = [t / r for t, r in zip(travel, reference) if r > 0.05]
+    return {
+        "episodes": len(seconds),
+        "fall_rate": falls / len(seconds),
+        "mean_episode_seconds": float(np.mean(seconds)),
+        "root_travel_m": float(np.mean(travel)),
+        "reference_travel_m": float(np.mean(reference)),
+        "travel_ratio": float(np.mean(ratios)) if ratios else None,
+    }
+
+
+def clone_report(agent, envs, standing: np.ndarray, episodes: int, seed: int) -> dict:
+    """A teacher-labelled run's evaluation: `follow_clips` of the policy's
+    mean, of the teacher itself and of the robot standing, on the same
+    seeded episodes (each clip from its start)."""
+    stand = standing_policy(standing)
+    runs = {
+        "policy": lambda obs, info: agent.act(obs, deterministic=True)[0],
+        "teacher": teacher_policy,
+        "standing": lambda obs, info: stand(obs),
+    }
+    evaluation = {name: follow_clips(envs, act, episodes, seed) for name, act in runs.items()}
+    return {"evaluation": evaluation | {"episodes": episodes, "seed": seed}}

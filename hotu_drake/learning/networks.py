@@ -31,6 +31,10 @@ class PolicyConfig:
     hidden: tuple[int, ...] = (256, 128)
     action_offset: tuple[float, ...] = ()  # the standing pose's action; () for zeros
     residual_scale: float = 1.0
+    activation: str = "relu"  # between the hidden layers: relu or elu (`ACTIVATIONS`)
+
+
+ACTIVATIONS: dict[str, type[nn.Module]] = {"relu": nn.ReLU, "elu": nn.ELU}
 
 
 def mlp(sizes: list[int], activation: type[nn.Module] = nn.ReLU) -> nn.Sequential:
@@ -51,7 +55,7 @@ class PolicyNetwork(nn.Module):
         self.config = config
         self.normalizer = Normalizer(config.observation_size)
         inputs = config.observation_size + sum(config.latent_sizes.values())
-        self.body = mlp([inputs, *config.hidden, config.action_size])
+        self.body = mlp([inputs, *config.hidden, config.action_size], ACTIVATIONS[config.activation])
         offset = torch.as_tensor(config.action_offset or [0.0] * config.action_size, dtype=torch.float32)
         if offset.numel() != config.action_size:
             raise ValueError(f"action_offset has {offset.numel()} values for {config.action_size} actions")

@@ -139,8 +139,10 @@ class RolloutCollector:
         self.reset(seed)
 
     def reset(self, seed: int | None = None) -> None:
-        """Start every environment afresh."""
-        self.observations, _ = self.envs.reset(seed=seed)
+        """Start every environment afresh. `info` is the vector environment's
+        info that goes with `observations` (the reset's, then each step's;
+        not refreshed where a learner ended episodes early)."""
+        self.observations, self.info = self.envs.reset(seed=seed)
 
     def step(self, action: np.ndarray) -> Step:
         """One step of every environment, the ended episodes' last frames in `after`, `amp` and `interaction`."""
@@ -188,7 +190,7 @@ class RolloutCollector:
             }
             for key, value in row.items():
                 rows.setdefault(key, []).append(value)
-            self.observations = step.observations
+            self.observations, self.info = step.observations, step.info
         stacked = {key: _stack(values) for key, values in rows.items()}
         stacked["rewards"] = stacked["rewards"].astype(np.float32)
         if observe is None:

@@ -1,0 +1,193 @@
+"""Learning from a teacher's actions: DAgger, with DART's noise.
+
+The environments label every state with the whole-body controller's
+action (`info["teacher_action"]`, computed on the Drake side), so the
+policy can be regressed on the teacher's actions at the states it visits
+itself, not only at the teacher's (Ross et al., DAgger; Laskey et al.,
+DART for the noise). One iteration (`DAggerAgent.iteration`):
+
+1. collect `ppo.horizon` steps of every environment. At each step the
+   teacher acts with probability `beta` (1 for the first
+   `teacher.teacher_iterations` iterations, then falling by
+   `teacher.beta_decay` each iteration), the policy's mean otherwise
+   (DAgger's mixture: the teacher's steps keep the robot near what the
+   policy would do, but upright, so later parts of the clips are
+   visited too); `teacher.noise` is added to what is executed either way;
+2. measure the policy's label loss on the states just visited, before it
+   learns from them (`label_loss_visited`: the DAgger figure, falling as
+   the policy's own states stop surprising it);
+3. keep every (state, label) pair (`ReplayBuffer`, the oldest dropped)
+   and regress the policy's mean on `teacher.updates` minibatches drawn
+   from all of them (a fixed cost per iteration, however much is kept).
+   The loss weighs each joint by the inverse of its kept labels'
+   variance (`teacher.joint_weights`), so joints that barely move count
+   as much as those that swing.
+
+The policy is the same `ActorCritic` the style learners train, so a
+clone can go on with PPO, and `policy.pt` deploys through
+`!PolicyCheckpoint` like any other.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import torch
+
+from hotu_drake.learning.base_agent import BaseAgent
+from hotu_drake.learning.buffers import ReplayBuffer, to_arrays, to_tensors
+from hotu_drake.learning.config import TrainConfig
+from hotu_drake.learning.demonstrations import Demonstrations
+from hotu_drake.learning.logger import count_iteration
+from hotu_drake.learning.networks import ActorCritic
+from hotu_drake.learning.ppo import PPO
+from hotu_drake.learning.rollout import Decision, Step
+
+LABEL = "teacher_action"  # the info key that carries the teacher's action for the state observed
+
+
+class DAggerAgent(BaseAgent):
+    """Regresses a policy on the teacher's actions (`info["teacher_action"]`
+    of `envs`, a vector environment made with `teacher=True`);
+    `demonstrations` only for what a checkpoint records (their layout and
+    control rate)."""
+
+    def __init__(
+        self,
+        config: TrainConfig,
+        envs,
+        demonstrations: Demonstrations,
+        action_offset: np.ndarray | None = None,
+        seed: int = 0,
+    ):
+        super().__init__(config, envs, seed)
+        config = self.config
+        self.demos = demonstrations
+        policy_config = self.policy_config(action_offset, {})
+        observation_size, action_size = policy_config.observation_size, policy_config.action_size
+        self.model = ActorCritic(policy_config, config.networks.critic_hidden, config.action.std, False)
+        self.ppo = PPO(self.model, config.ppo)  # for a clone that goes on with PPO; unused here
+        teacher = config.teacher
+        self.optimizer = torch.optim.Adam(self.model.policy.parameters(), lr=teacher.learning_rate)
+        self.labelled = ReplayBuffer(teacher.buffer_size, (observation_size + action_size,))
+        self._observation_size = observation_size
+        self._visited: list[tuple[np.ndarray, np.ndarray]] = []
+        self._reset_envs()
+
+    @property
+    def beta(self) -> float:
+        """The share of steps the teacher acts at, this iteration."""
+        t, done = self.config.teacher, self.counters["iteration"]
+        return 1.0 if done < t.teacher_iterations else t.beta_decay ** (done - t.teacher_iterations + 1)
+
+    # -- the rollout loop's hooks ----------------------------------------------------
+
+    def decide(self, observations: np.ndarray) -> Decision:
+        """The teacher's action or the policy's mean, drawn per environment
+        and step, with the exploration noise; the state and its label kept."""
+        info = self.collector.info
+        if LABEL not in info:
+            raise RuntimeError(f"the environments give no info[{LABEL!r}]: make them with teacher=True")
+        labels = np.asarray(info[LABEL], dtype=np.float32)
+        self._visited.append((observations.astype(np.float32), labels))
+        mean, _ = self.act(observations, deterministic=True)
+        teacher_acts = self.rng.random(len(observations)) < self.beta
+        action = np.where(teacher_acts[:, None], labels, mean)
+        noise = self.config.teacher.noise
+        if noise > 0.0:
+            action = action + noise * self.rng.standard_normal(action.shape)
+        return Decision(np.clip(action, -1.0, 1.0).astype(np.float32))
+
+    def observe(self, step: Step) -> None:
+        """Episode bookkeeping."""
+        self._bookkeeping(step.ended, step.terminated, step.info)
+        return None
+
+    # -- one iteration -------------------------------------------------------------
+
+    def iteration(self) -> dict[str, float]:
+        """Collect, measure the label loss on what was visited, keep it, regress."""
+        start = time.perf_counter()
+        beta = self.beta
+        self.model.eval()
+        torch.set_num_threads(1)
+        self._visited = []
+        rollout = self.collector.collect(self, self.config.ppo.horizon)
+        observations = np.concatenate([o for o, _ in self._visited])
+        labels = np.concatenate([a for _, a in self._visited])
+        collected = time.perf_counter()
+        torch.set_num_threads(self.config.torch_threads)
+        self.labelled.add(np.concatenate([observations, labels], axis=1))
+        stats = {"beta": beta, "label_loss_visited": self.label_loss(observations, labels)}
+        self.model.policy.normalizer.update(torch.as_tensor(observations))
+        stats |= self.fit()
+        end = time.perf_counter()
+        stats |= count_iteration(self.counters, rollout.num_steps, start, collected, end)
+        stats |= {"falls": int(rollout.terminated.sum()), **self.episodes.stats()}
+        return stats
+
+    def _kept(self) -> tuple[torch.Tensor, torch.Tensor]:
+        data = torch.as_tensor(self.labelled.data[: self.labelled.size])
+        return data[:, : self._observation_size], data[:, self._observation_size :]
+
+    def _weights(self, labels: torch.Tensor) -> torch.Tensor:
+        """Each joint's weight in the loss: the inverse variance of its labels kept (floored), or 1."""
+        if self.config.teacher.joint_weights == "equal":
+            return torch.ones(labels.shape[1])
+        return 1.0 / labels.var(0, unbiased=False).clamp_min(1e-4)
+
+    def label_loss(self, observations: np.ndarray, labels: np.ndarray) -> float:
+        """The policy's mean squared error against `labels` at `observations`,
+        each joint weighed as in the regression (with the variance weights,
+        1 is no better than the labels' mean)."""
+        with torch.no_grad():
+            error = (self.model.policy(torch.as_tensor(observations)) - torch.as_tensor(labels)).square()
+            return float((error * self._weights(self._kept()[1])).mean())
+
+    def fit(self) -> dict[str, float]:
+        """`teacher.updates` minibatches of the weighted regression, drawn from every kept pair."""
+        t = self.config.teacher
+        observations, labels = self._kept()
+        weights = self._weights(labels)
+        policy = self.model.policy
+        self.model.train()
+        total = 0.0
+        for _ in range(t.updates):
+            index = torch.randint(len(observations), (t.batch_size,), generator=self.generator)
+            loss = ((policy.mean(observations[index]) - labels[index]).square() * weights).mean()
+            self.optimizer.zero_grad()
+            loss.backward()
+            torch.nn.utils.clip_grad_norm_(policy.parameters(), self.config.ppo.max_grad_norm)
+            self.optimizer.step()
+            total += float(loss.detach())
+        self.model.eval()
+        return {"label_loss": total / t.updates, "labelled": self.labelled.size}
+
+    # -- what checkpoints record -------------------------------------------------------
+
+    def checkpoint_meta(self) -> dict:
+        return {
+            "groups": [],
+            "layout": self.demos.layout.to_dict(),
+            "samples": self.counters["samples"],
+            "iteration": self.counters["iteration"],
+            "config": self.config.to_dict(),
+        }
+
+    def policy_info(self) -> dict:
+        """What a deployed policy needs besides its weights: no latents, and its control rate."""
+        latent = self.config.latent
+        prior = {"size": 0, "resample_min": latent.resample_min, "resample_max": latent.resample_max}
+        return {"latent": prior, "control_rate": self.demos.control_rate}
+
+    def state_dict(self) -> dict:
+        return super().state_dict() | {
+            "teacher_optimizer": self.optimizer.state_dict(),
+            "labelled": to_tensors(self.labelled.state_dict()),
+        }
+
+    def load_state_dict(self, state: dict) -> None:
+        self.optimizer.load_state_dict(state["teacher_optimizer"])
+        self.labelled.load_state_dict(to_arrays(state["labelled"]))
+        super().load_state_dict(state)
