@@ -21,6 +21,12 @@ and resampled as in training, and measures:
 
 `standing_policy` gives the same figures for a robot that only holds its
 standing pose: the baseline a learned motion must beat.
+
+A policy cloned from the whole-body controller (`dagger`) is judged by
+what it does instead of by judges: `follow_clips` runs it from each
+clip's start and measures its falls and the pelvis' travel against the
+reference's, and `clone_report` sets it beside the teacher itself and
+the robot standing.
 """
 
 from __future__ import annotations
