@@ -178,3 +178,5 @@ def test_a_dagger_run_learns_from_the_teacher_and_reports_it_beside_the_teacher(
     assert read_checkpoint(out / "checkpoint.pt", kind="training")["state"]["labelled"]["size"] == 120
     headline = json.loads(capsys.readouterr().err.strip().splitlines()[-1])
     assert {"policy_fall_rate", "teacher_travel_ratio", "standing_travel_ratio"} <= set(headline)
+    picture = tmp_path / "trace.png"  # a clone has no latents; its trace is drawn all the same
+    assert main(["trace", str(out), "--out", str(picture), "--parts", "hip,knee"]) == 0 and picture.stat().st_size > 0

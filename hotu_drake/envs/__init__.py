@@ -9,7 +9,8 @@ Importing this package registers:
 - `hotu_drake/BoxCarryTransfer-v0`, `hotu_drake/DrillGraspTransfer-v0`
   (`transfer`): a task on a robot, tracking retargeted UDH skill episodes.
 
-Episodes are cut at 300 control steps (10 s) by gymnasium's TimeLimit.
+Episodes are cut at 300 control steps (10 s at the default 30 Hz) by
+gymnasium's TimeLimit; a training run asks for 10 s at its own rate.
 The rollout workers and the rollout loop (`EnvSpec`, `make_vector_env`,
 `RolloutCollector`, `Rollout`) live in `hotu_drake.learning.rollout` (no
 pydrake) and are re-exported here. Beside the environments: `runs` (a

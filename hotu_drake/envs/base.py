@@ -401,7 +401,8 @@ class DiagramEnv(gym.Env):
         info["root_xy"] = self.body_position("pelvis")[:2]
         if self.teacher:
             info["teacher_action"] = self.teacher_action().astype(np.float32)
-            info["reference_root_xy"] = self._teacher().plan.root_position(self._clip_time())[:2]
+            reference = self._teacher().plan.root_position(self._clip_time())  # in the clip's frame
+            info["reference_root_xy"] = (self._episode_frame @ reference)[:2]
         return info
 
     def _clip_time(self) -> float:

@@ -164,7 +164,7 @@ class _ObjectTaskEnv(DiagramEnv):
         """The task observation at a reference clip's state (for behavior
         cloning): the robot's, then the goal at that frame if the clip
         carries a track of the object (zeros if not)."""
-        robot = super().clip_observation(clip_index, time_)[:-GOAL_SIZE]  # the robot's (and phase), not this goal
+        robot = super().clip_observation(clip_index, time_)[: DiagramEnv._observation_size(self)]  # and the phase
         goal = np.zeros(GOAL_SIZE)
         if self._track(self.clips[clip_index]) is not None:
             goal = self._goal_port.Eval(self._clip_frame(clip_index, time_))

@@ -9,6 +9,7 @@ or skill) is this package's public API, importable from here:
 `PolicyConfig`, `sample_sphere` (latents from the prior), and a skill's
 `to_latents` and `high_level_input`. Training lives in the modules:
 `trainer` (the loop and the run folder), `base_agent`, `agent`,
+`dagger` (learning from the whole-body controller's actions),
 `skill_agent`, `rollout`, `high_level`, and their configurations.
 """
 

@@ -24,8 +24,9 @@ DART for the noise). One iteration (`DAggerAgent.iteration`):
    as much as those that swing.
 
 The policy is the same `ActorCritic` the style learners train, so a
-clone can go on with PPO, and `policy.pt` deploys through
-`!PolicyCheckpoint` like any other.
+clone can go on with PPO. A clone that observes the clip's phase (the
+preset's) cannot be deployed by a scenario yet: `!PolicyCheckpoint`
+gives no phase and refuses the file.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ from hotu_drake.learning.base_agent import BaseAgent
 from hotu_drake.learning.buffers import ReplayBuffer, to_arrays, to_tensors
 from hotu_drake.learning.config import TrainConfig
 from hotu_drake.learning.demonstrations import Demonstrations
+from hotu_drake.learning.latents import LatentSchedule
 from hotu_drake.learning.logger import count_iteration
 from hotu_drake.learning.networks import ActorCritic
 from hotu_drake.learning.ppo import PPO
@@ -73,6 +75,7 @@ class DAggerAgent(BaseAgent):
         self.labelled = ReplayBuffer(teacher.buffer_size, (observation_size + action_size,))
         self._observation_size = observation_size
         self._visited: list[tuple[np.ndarray, np.ndarray]] = []
+        self.latents = LatentSchedule([], 0, self.num_envs, 1, 2, self.rng)  # none (as `Agent.latents` for `trace`)
         self._reset_envs()
 
     @property
@@ -142,7 +145,7 @@ class DAggerAgent(BaseAgent):
         each joint weighed as in the regression (with the variance weights,
         1 is no better than the labels' mean)."""
         with torch.no_grad():
-            error = (self.model.policy(torch.as_tensor(observations)) - torch.as_tensor(labels)).square()
+            error = (self.model.policy.mean(torch.as_tensor(observations)) - torch.as_tensor(labels)).square()
             return float((error * self._weights(self._kept()[1])).mean())
 
     def fit(self) -> dict[str, float]:
