@@ -174,6 +174,7 @@ class DiagramEnv(gym.Env):
         self._amp_port = sim.diagram.GetOutputPort("amp_observation")
         self._observer = sim.systems["observation"]
         self._root = sim.plant.GetBodyByName(emb.spec.root.name, sim.model)
+        self._pelvis = sim.plant.GetBodyByName(emb.key_bodies["pelvis"], sim.model)  # `info["root_xy"]`, every step
         self.part_slices: dict[str, slice] = dict(self._observer.part_slices)
         self._fall = FallCheck(sim.plant, sim.model, emb, height_fraction=termination_height)
         self.termination_height = self._fall.min_pelvis_height
@@ -398,7 +399,7 @@ class DiagramEnv(gym.Env):
         frames = np.asarray(self._history, dtype=np.float32)
         amp = {part: frames[:, s] for part, s in self.part_slices.items()}
         info = {"amp": amp, "time": self._context.get_time(), "init": self.init_kind}
-        info["root_xy"] = self.body_position("pelvis")[:2]
+        info["root_xy"] = self.sim.plant.EvalBodyPoseInWorld(self._plant_context, self._pelvis).translation()[:2]
         if self.teacher:
             info["teacher_action"] = self.teacher_action().astype(np.float32)
             reference = self._teacher().plan.root_position(self._clip_time())  # in the clip's frame
@@ -447,16 +448,14 @@ class DiagramEnv(gym.Env):
         state = plant.GetPositionsAndVelocities(scratch, model)
         return self._teacher().act(state, self._clip_time())
 
-    def clip_phase(self, time_: float | None = None) -> np.ndarray:
-        """Where the episode is in its clip at the environment's `time_`
-        (default now), as the sine and cosine of an angle: a looped clip's
-        share of its cycle times 2 pi, another's share of its duration times
-        pi (so its start and end differ). Zeros after a default start (no
-        clip)."""
+    def clip_phase(self) -> np.ndarray:
+        """Where the episode is in its clip now, as the sine and cosine of an
+        angle: a looped clip's share of its cycle times 2 pi, another's share
+        of its duration times pi (so its start and end differ). Zeros after a
+        default start (no clip)."""
         if self._episode_clip is None:
             return np.zeros(PHASE_SIZE)
-        clip_time = self._clip_time() if time_ is None else self._episode_start + time_
-        return self._phase_at(self._episode_clip, clip_time)
+        return self._phase_at(self._episode_clip, self._clip_time())
 
     def _phase_at(self, clip_index: int, clip_time: float) -> np.ndarray:
         share = clip_time / max(self.clips[clip_index].duration, 1e-9)

@@ -122,9 +122,10 @@ class DAggerAgent(BaseAgent):
         collected = time.perf_counter()
         torch.set_num_threads(self.config.torch_threads)
         self.labelled.add(np.concatenate([observations, labels], axis=1))
-        stats = {"beta": beta, "label_loss_visited": self.label_loss(observations, labels)}
+        weights = self._weights(self._kept()[1])  # of everything kept, for the measure and the regression alike
+        stats = {"beta": beta, "label_loss_visited": self.label_loss(observations, labels, weights)}
         self.model.policy.normalizer.update(torch.as_tensor(observations))
-        stats |= self.fit()
+        stats |= self.fit(weights)
         end = time.perf_counter()
         stats |= count_iteration(self.counters, rollout.num_steps, start, collected, end)
         stats |= {"falls": int(rollout.terminated.sum()), **self.episodes.stats()}
@@ -140,19 +141,20 @@ class DAggerAgent(BaseAgent):
             return torch.ones(labels.shape[1])
         return 1.0 / labels.var(0, unbiased=False).clamp_min(1e-4)
 
-    def label_loss(self, observations: np.ndarray, labels: np.ndarray) -> float:
+    def label_loss(self, observations: np.ndarray, labels: np.ndarray, weights: torch.Tensor | None = None) -> float:
         """The policy's mean squared error against `labels` at `observations`,
-        each joint weighed as in the regression (with the variance weights,
-        1 is no better than the labels' mean)."""
+        each joint weighed as in the regression (`weights`, by default those
+        of everything kept; with the variance weights, 1 is no better than
+        the labels' mean)."""
+        weights = self._weights(self._kept()[1]) if weights is None else weights
         with torch.no_grad():
             error = (self.model.policy.mean(torch.as_tensor(observations)) - torch.as_tensor(labels)).square()
-            return float((error * self._weights(self._kept()[1])).mean())
+            return float((error * weights).mean())
 
-    def fit(self) -> dict[str, float]:
-        """`teacher.updates` minibatches of the weighted regression, drawn from every kept pair."""
+    def fit(self, weights: torch.Tensor) -> dict[str, float]:
+        """`teacher.updates` minibatches of the regression weighted by `weights`, drawn from every kept pair."""
         t = self.config.teacher
         observations, labels = self._kept()
-        weights = self._weights(labels)
         policy = self.model.policy
         self.model.train()
         total = 0.0
