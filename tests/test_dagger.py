@@ -12,6 +12,7 @@ from hotu_drake.errors import InputError
 from hotu_drake.learning.config import config_from_dict, preset
 from hotu_drake.learning.dagger import DAggerAgent
 from hotu_drake.learning.evaluation import follow_clips, standing_policy, teacher_policy
+from hotu_drake.learning.ppo import make_batch
 from tests import toy_env
 
 
@@ -109,11 +110,57 @@ def test_a_resumed_clone_keeps_its_labels_and_optimiser():
     again.envs.close()
 
 
+def test_the_clone_goes_on_with_ppo_its_label_loss_fading_on_schedule():
+    """With `teacher.ppo_after`, the critic learns the reward's values
+    during DAgger, then PPO trains the clone with the label loss at a
+    weight falling linearly to 0; the clone keeps the teacher's reward."""
+    envs = toy_env.teacher_vector_env(4)
+    config = _tiny(ppo_after=960, label_fade_samples=1200, label_weight=2.0)  # 120 samples an iteration
+    config.environment.tracking_reward = True
+    config.ppo.learning_rate = 1e-4
+    agent = DAggerAgent(config, envs, toy_env.demonstrations(), seed=0)
+    cloning = [agent.iteration() for _ in range(8)]
+    assert agent.handed_over and agent.counters["samples"] == 960 and "approx_kl" not in cloning[-1]
+    assert cloning[-1]["critic_loss"] < 0.5 * cloning[0]["critic_loss"], (cloning[0], cloning[-1])
+    weights, tuned = [], []
+    for _ in range(12):
+        weights.append(agent.label_weight)
+        tuned.append(agent.iteration())
+    envs.close()
+    assert weights == pytest.approx([2.0 * max(0.0, 1.0 - 0.1 * k) for k in range(12)])
+    assert all("approx_kl" in s and s["label_weight"] == w for s, w in zip(tuned, weights))
+    assert tuned[0]["label_term"] > 0.0 and tuned[-1]["label_term"] == 0.0
+    assert np.mean([s["reward"] for s in tuned[-4:]]) > 0.8 * cloning[-1]["reward"], (cloning[-1], tuned[-4:])
+
+
+def test_after_the_handover_each_sample_of_ppo_keeps_its_own_label():
+    envs = toy_env.teacher_vector_env(3)
+    config = _tiny(ppo_after=1)
+    config.environment.tracking_reward = True
+    agent = DAggerAgent(config, envs, toy_env.demonstrations(), seed=2)
+    agent.iteration()  # past the handover: the policy samples, the labels are still kept
+    assert agent.handed_over
+    agent._visited = []
+    rollout = agent.collect()
+    extras = agent.batch_extras(rollout)
+    zeros = np.zeros(rollout.rewards.shape, np.float32)
+    batch = make_batch(
+        agent.model, rollout.observations, {}, rollout.actions, rollout.log_probs, rollout.values, zeros, False, extras
+    )
+    envs.close()
+    minibatch = batch.take(torch.randperm(len(batch))[:40])
+    expected = np.clip(toy_env.TEACHER_GAIN * (toy_env.TARGET - minibatch.observations[:, :4].numpy()), -1.0, 1.0)
+    np.testing.assert_allclose(minibatch.extras["teacher_action"].numpy(), expected, atol=1e-5)
+    assert not np.allclose(rollout.actions.reshape(-1, 4), extras["teacher_action"].reshape(-1, 4))  # the policy acted
+
+
 def test_dagger_without_the_teacher_in_its_environments_is_refused():
     with pytest.raises(InputError, match="environment.teacher"):
         config_from_dict({"algo": "dagger", "environment": {"teacher": False}})
     config = preset("dagger")
     assert config.environment.control_rate == 60.0 and config.environment.phase_observation
+    with pytest.raises(InputError, match="tracking_reward"):
+        config_from_dict({"algo": "dagger", "teacher": {"ppo_after": 1000}})
 
 
 def test_an_environment_without_labels_is_named():

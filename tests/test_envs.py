@@ -341,3 +341,34 @@ def test_the_phase_observation_and_the_looped_reference_say_where_the_clip_is():
     assert "reference_root_xy" in info and "root_xy" in info
     env.close()
     plain.close()
+
+
+def test_the_tracking_reward_scores_the_teacher_above_standing_and_follows_a_looped_clip():
+    """`tracking_reward` rewards following the episode's clip (its terms in
+    `info["tracking"]`): about 1 at a reference start, higher over a second
+    for the whole-body controller than for the standing pose, which the
+    walk leaves behind; nothing after a default start (no clip)."""
+    options = {"robot": "h1", "hands": "none", "motions": WALK, "control_rate": 60.0, "teacher": True, "loop": True}
+    env = gym.make("hotu_drake/Imitation-v0", tracking_reward=True, **options)
+    inner = env.unwrapped
+    returns = {}
+    for who in ("teacher", "standing"):
+        _, info = env.reset(seed=0, options={"init": "reference", "clip": 0, "time": 0.0})
+        rewards = []
+        for _ in range(60):
+            action = info["teacher_action"] if who == "teacher" else inner.standing_action()
+            _, reward, terminated, _, info = env.step(action)
+            rewards.append(reward)
+            assert not terminated
+        assert set(info["tracking"]) == {"joints", "key_bodies", "root_height", "root_velocity"}
+        assert 0.0 <= min(rewards) and max(rewards) <= 1.0
+        returns[who] = (rewards[0], float(np.mean(rewards)))
+    assert returns["teacher"][0] > 0.95 and returns["standing"][0] > 0.9, returns  # both start on the clip
+    assert returns["teacher"][1] > 0.85 and returns["standing"][1] < returns["teacher"][1] - 0.15, returns
+    env.reset(seed=0, options={"init": "default"})
+    assert env.step(inner.standing_action())[1] == 0.0
+    plain = gym.make("hotu_drake/Imitation-v0", **options)
+    plain.reset(seed=0, options={"init": "reference", "clip": 0, "time": 0.0})
+    assert plain.step(plain.unwrapped.standing_action())[1] == 0.0  # off by default: the style reward is the trainer's
+    env.close()
+    plain.close()

@@ -166,19 +166,28 @@ class ToyTeacherEnv(ToyAmpEnv):
     one: `info["teacher_action"]` drives every coordinate to its target
     (a proportional law, saturating at the action's bounds), and the info
     says where the "root" (the first two coordinates) is and where the
-    reference's is (the target, reached in `REFERENCE_SECONDS`)."""
+    reference's is (the target, reached in `REFERENCE_SECONDS`). The
+    reward tracks that reference, as `tracking_reward` does in
+    `Imitation-v0`: exp(-4 |reference - position|^2) over all four."""
 
     REFERENCE_SECONDS = 1.0
 
+    def _reference(self) -> np.ndarray:
+        share = min(self.steps / CONTROL_RATE / self.REFERENCE_SECONDS, 1.0)
+        return (1.0 - share) * self.start + share * TARGET
+
     def _info(self) -> dict:
         info = super()._info()
-        elapsed = self.steps / CONTROL_RATE
-        share = min(elapsed / self.REFERENCE_SECONDS, 1.0)
-        info["time"] = elapsed
+        info["time"] = self.steps / CONTROL_RATE
         info["teacher_action"] = np.clip(TEACHER_GAIN * (TARGET - self.position), -1.0, 1.0).astype(np.float32)
         info["root_xy"] = self.position[:2].copy()
-        info["reference_root_xy"] = (1.0 - share) * self.start[:2] + share * TARGET[:2]
+        info["reference_root_xy"] = self._reference()[:2]
         return info
+
+    def step(self, action):
+        observation, _, terminated, truncated, info = super().step(action)
+        offset = self._reference() - self.position
+        return observation, float(np.exp(-4.0 * offset @ offset)), terminated, truncated, info
 
     start = np.zeros(4)
 

@@ -9,6 +9,9 @@
   joint's limits), held for one control period (1/30 s).
 - Reward: 0. The imitation reward is the per-part discriminators'; the
   trainer computes it from `info["amp"]` (part -> the last K AMP frames).
+  With `tracking_reward=True`, DeepMimic's tracking of the episode's clip
+  instead (`envs.tracking.ClipTracking`; its terms in `info["tracking"]`;
+  0 after a default start, which has no clip).
 - Start: a reference clip at a random time (reference state
   initialisation) with probability `reference_init_probability`, else the
   standing pose dropped from up to `drop_height` m.
@@ -27,6 +30,8 @@ from collections.abc import Sequence
 
 from hotu_drake import embodiment as embodiments
 from hotu_drake.envs.base import DiagramEnv, environment_scenario
+from hotu_drake.envs.tracking import CLIP_SCALES, CLIP_WEIGHTS, ClipTracking, tracking_terms
+from hotu_drake.errors import check_bool
 from hotu_drake.retarget.references import reference_clips
 from hotu_drake.scenario import Scenario
 
@@ -41,8 +46,20 @@ class ImitationEnv(DiagramEnv):
         time_step: float | None = None,
         control_rate: float | None = None,
         sampled_output_ports: bool | None = None,
+        tracking_reward: bool = False,
         **options,
     ):
         scenario = environment_scenario(scenario, robot, hands, time_step, control_rate, sampled_output_ports)
         emb = embodiments.load(scenario.embodiment, scenario.hands)
         super().__init__(scenario, reference_clips(emb, motions), emb, **options)
+        where = type(self).__name__
+        self.tracking_reward = check_bool(tracking_reward, "tracking_reward", where)
+        self._tracking = ClipTracking(self.sim.plant, self.sim.model, emb, self.clips, self.loop)
+
+    def _task_reward(self, info: dict) -> float:
+        if not self.tracking_reward or self._episode_clip is None:
+            return 0.0
+        errors = self._tracking.errors(self._plant_context, self._episode_clip, self._clip_time())
+        terms = tracking_terms(errors, CLIP_WEIGHTS, CLIP_SCALES)
+        info["tracking"] = {k: v for k, v in terms.items() if k != "total"}
+        return terms["total"]

@@ -45,6 +45,7 @@ from pydrake.math import RigidTransform
 
 from hotu_drake.envs.recording import record_episode
 from hotu_drake.envs.tasks import BoxCarryEnv, DrillGraspEnv
+from hotu_drake.envs.tracking import tracking_terms
 from hotu_drake.errors import InputError, check_number
 from hotu_drake.learning import high_level_input, load_checkpoint, to_latents
 from hotu_drake.learning.skill_config import TASKS, load_skill_config
@@ -75,12 +76,12 @@ TRACKING_SCALES = {"joints": 5.0, "key_bodies": 10.0, "object": 10.0}
 def tracking_reward(joint_error: np.ndarray, key_body_error: np.ndarray, object_error: np.ndarray) -> dict:
     """The tracking terms and their weighted sum (`total`) from the errors
     (joint radians (n,), key-body offsets (k, 3), object offset (3,))."""
-    terms = {
-        "joints": float(np.exp(-TRACKING_SCALES["joints"] * np.mean(np.square(joint_error)))),
-        "key_bodies": float(np.exp(-TRACKING_SCALES["key_bodies"] * np.mean(np.sum(np.square(key_body_error), -1)))),
-        "object": float(np.exp(-TRACKING_SCALES["object"] * np.sum(np.square(object_error)))),
+    squared = {
+        "joints": float(np.mean(np.square(joint_error))),
+        "key_bodies": float(np.mean(np.sum(np.square(key_body_error), -1))),
+        "object": float(np.sum(np.square(object_error))),
     }
-    return terms | {"total": sum(TRACKING_WEIGHTS[k] * v for k, v in terms.items())}
+    return tracking_terms(squared, TRACKING_WEIGHTS, TRACKING_SCALES)
 
 
 class _TransferMixin:

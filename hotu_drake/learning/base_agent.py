@@ -147,12 +147,24 @@ class BaseAgent:
         c, r = self.config.ppo, rollout
         advantages = gae(rewards["total"], r.values, r.next_values, r.terminated, r.ended, c.gamma, c.lam)
         batch = make_batch(
-            self.model, r.observations, r.latents, r.actions, r.log_probs, r.values, advantages, c.normalize_value
+            self.model,
+            r.observations,
+            r.latents,
+            r.actions,
+            r.log_probs,
+            r.values,
+            advantages,
+            c.normalize_value,
+            self.batch_extras(rollout),
         )
         stats = self.ppo.update(batch, self.generator, self.extra_losses)
         stats |= self.update_judges(rollout)
         self.model.policy.normalizer.update(batch.observations)
         return stats
+
+    def batch_extras(self, rollout: Rollout) -> dict[str, np.ndarray]:
+        """(T, N, ...) arrays of the rollout the learner's `extra_losses` read per sample (`PPOBatch.extras`)."""
+        return {}
 
     def extra_losses(self, minibatch: PPOBatch, mean: torch.Tensor) -> dict[str, torch.Tensor]:
         """The actor's losses besides PPO's, on a minibatch and its mean actions."""

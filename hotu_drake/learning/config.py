@@ -173,6 +173,13 @@ class TeacherConfig:
     learning_rate: float = 1e-3
     batch_size: int = 512
     buffer_size: int = 300_000  # labelled states kept (the oldest dropped); 120 MB for H1
+    # After this many samples the clone goes on with PPO on the environment's reward (its tracking
+    # reward, `environment.tracking_reward`), its label loss on the states of each rollout kept in the
+    # actor's loss at `label_weight`, falling linearly to 0 over `label_fade_samples`. 0: DAgger only.
+    # Until then the critic learns the reward's values of the rollouts, so PPO starts with a critic.
+    ppo_after: int = 0
+    label_weight: float = 1.0
+    label_fade_samples: int = 300_000
 
 
 @dataclass
@@ -184,6 +191,7 @@ class EnvironmentConfig:
     teacher: bool = False  # `info["teacher_action"]`: the whole-body controller's action (dagger)
     phase_observation: bool = False  # the observation ends with the clip's phase
     loop: bool = False  # the clips repeat (a walk goes on for the whole episode)
+    tracking_reward: bool = False  # the environment's reward: DeepMimic's tracking of the clip (`envs.tracking`)
     termination_height: float = 0.5
     amp_history: int = 10
     # End an episode after `style_patience` steps under this combined style reward; 0: off (the
@@ -255,8 +263,16 @@ class TrainConfig:
         check_number(t.learning_rate, "teacher.learning_rate", where, low=0.0, high=1.0)
         check_number(t.batch_size, "teacher.batch_size", where, low=1, high=1_000_000, integer=True)
         check_number(t.buffer_size, "teacher.buffer_size", where, low=1, high=10**8, integer=True)
+        check_number(t.ppo_after, "teacher.ppo_after", where, low=0, high=10**10, integer=True)
+        check_number(t.label_weight, "teacher.label_weight", where, low=0.0, high=1e6)
+        check_number(t.label_fade_samples, "teacher.label_fade_samples", where, low=1, high=10**10, integer=True)
         if self.algo == "dagger" and not env.teacher:
             raise InputError("dagger learns from the teacher: environment.teacher must be true", where)
+        if self.algo == "dagger" and t.ppo_after and not env.tracking_reward:
+            raise InputError(
+                "teacher.ppo_after: PPO after the clone needs a reward: environment.tracking_reward must be true",
+                where,
+            )
         check_number(env.style_termination, "environment.style_termination", where, low=0.0, high=1.0)
         check_number(env.style_patience, "environment.style_patience", where, low=1, high=10_000, integer=True)
         check_number(self.task_weight, "task_weight", where, low=0.0, high=100.0)

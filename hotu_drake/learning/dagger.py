@@ -23,8 +23,15 @@ DART for the noise). One iteration (`DAggerAgent.iteration`):
    variance (`teacher.joint_weights`), so joints that barely move count
    as much as those that swing.
 
-The policy is the same `ActorCritic` the style learners train, so a
-clone can go on with PPO. A clone that observes the clip's phase (the
+With `teacher.ppo_after` the clone goes on with PPO once that many
+samples are in (lever 1's last stage): the environment's reward (its
+tracking of the clip), the policy's Gaussian exploration, and the label
+loss on each rollout's own states kept in the actor's loss, fading to 0
+over `teacher.label_fade_samples` (`label_weight` in the metrics). The
+critic learns the reward's values from the first iteration, so the
+handover starts with one.
+
+The policy is the same `ActorCritic` the style learners train. A clone that observes the clip's phase (the
 preset's) cannot be deployed by a scenario yet: `!PolicyCheckpoint`
 gives no phase and refuses the file.
 """
@@ -43,8 +50,8 @@ from hotu_drake.learning.demonstrations import Demonstrations
 from hotu_drake.learning.latents import LatentSchedule
 from hotu_drake.learning.logger import count_iteration
 from hotu_drake.learning.networks import ActorCritic
-from hotu_drake.learning.ppo import PPO
-from hotu_drake.learning.rollout import Decision, Step
+from hotu_drake.learning.ppo import PPO, PPOBatch, gae, make_batch
+from hotu_drake.learning.rollout import Decision, Rollout, Step
 
 LABEL = "teacher_action"  # the info key that carries the teacher's action for the state observed
 
@@ -69,12 +76,13 @@ class DAggerAgent(BaseAgent):
         policy_config = self.policy_config(action_offset, {})
         observation_size, action_size = policy_config.observation_size, policy_config.action_size
         self.model = ActorCritic(policy_config, config.networks.critic_hidden, config.action.std, False)
-        self.ppo = PPO(self.model, config.ppo)  # for a clone that goes on with PPO; unused here
+        self.ppo = PPO(self.model, config.ppo)  # the critic from the start; the actor after `teacher.ppo_after`
         teacher = config.teacher
         self.optimizer = torch.optim.Adam(self.model.policy.parameters(), lr=teacher.learning_rate)
         self.labelled = ReplayBuffer(teacher.buffer_size, (observation_size + action_size,))
         self._observation_size = observation_size
         self._visited: list[tuple[np.ndarray, np.ndarray]] = []
+        self._loss_weights: torch.Tensor | None = None  # the label loss's joint weights in PPO's updates
         self.latents = LatentSchedule([], 0, self.num_envs, 1, 2, self.rng)  # none (as `Agent.latents` for `trace`)
         self._reset_envs()
 
@@ -84,16 +92,33 @@ class DAggerAgent(BaseAgent):
         t, done = self.config.teacher, self.counters["iteration"]
         return 1.0 if done < t.teacher_iterations else t.beta_decay ** (done - t.teacher_iterations + 1)
 
+    @property
+    def handed_over(self) -> bool:
+        """Whether the clone learns by PPO now (`teacher.ppo_after`)."""
+        after = self.config.teacher.ppo_after
+        return after > 0 and self.counters["samples"] >= after
+
+    @property
+    def label_weight(self) -> float:
+        """The label loss's weight in PPO's actor loss now (0 before the handover)."""
+        t = self.config.teacher
+        if not self.handed_over:
+            return 0.0
+        return t.label_weight * max(0.0, 1.0 - (self.counters["samples"] - t.ppo_after) / t.label_fade_samples)
+
     # -- the rollout loop's hooks ----------------------------------------------------
 
     def decide(self, observations: np.ndarray) -> Decision:
         """The teacher's action or the policy's mean, drawn per environment
-        and step, with the exploration noise; the state and its label kept."""
+        and step, with the exploration noise (after the handover: the
+        policy's sample); the state and its label kept."""
         info = self.collector.info
         if LABEL not in info:
             raise RuntimeError(f"the environments give no info[{LABEL!r}]: make them with teacher=True")
         labels = np.asarray(info[LABEL], dtype=np.float32)
         self._visited.append((observations.astype(np.float32), labels))
+        if self.handed_over:
+            return super().decide(observations)
         mean, _ = self.act(observations, deterministic=True)
         teacher_acts = self.rng.random(len(observations)) < self.beta
         action = np.where(teacher_acts[:, None], labels, mean)
@@ -110,15 +135,20 @@ class DAggerAgent(BaseAgent):
     # -- one iteration -------------------------------------------------------------
 
     def iteration(self) -> dict[str, float]:
-        """Collect, measure the label loss on what was visited, keep it, regress."""
+        """Collect, measure the label loss on what was visited, keep it,
+        regress (and fit the critic); after the handover, a PPO iteration."""
+        self._visited = []
+        if self.handed_over:
+            weight = self.label_weight  # this iteration's (the samples counted at its end)
+            return super().iteration() | {"label_weight": weight}
         start = time.perf_counter()
         beta = self.beta
         self.model.eval()
         torch.set_num_threads(1)
-        self._visited = []
-        rollout = self.collector.collect(self, self.config.ppo.horizon)
-        observations = np.concatenate([o for o, _ in self._visited])
-        labels = np.concatenate([a for _, a in self._visited])
+        rollout = (
+            self.collect() if self.config.teacher.ppo_after else self.collector.collect(self, self.config.ppo.horizon)
+        )
+        observations, labels = self._visited_pairs()
         collected = time.perf_counter()
         torch.set_num_threads(self.config.torch_threads)
         self.labelled.add(np.concatenate([observations, labels], axis=1))
@@ -126,10 +156,59 @@ class DAggerAgent(BaseAgent):
         stats = {"beta": beta, "label_loss_visited": self.label_loss(observations, labels, weights)}
         self.model.policy.normalizer.update(torch.as_tensor(observations))
         stats |= self.fit(weights)
+        if self.config.teacher.ppo_after:
+            stats |= self._fit_critic(rollout)
         end = time.perf_counter()
         stats |= count_iteration(self.counters, rollout.num_steps, start, collected, end)
-        stats |= {"falls": int(rollout.terminated.sum()), **self.episodes.stats()}
+        stats |= {"reward": float(rollout.rewards.mean()), "falls": int(rollout.terminated.sum())}
+        stats |= self.episodes.stats()
         return stats
+
+    def _visited_pairs(self) -> tuple[np.ndarray, np.ndarray]:
+        """The states this iteration visited and their labels, (T N, ...) in the rollout's order."""
+        return np.concatenate([o for o, _ in self._visited]), np.concatenate([a for _, a in self._visited])
+
+    def _fit_critic(self, rollout: Rollout) -> dict[str, float]:
+        c = self.config.ppo
+        advantages = gae(
+            rollout.rewards, rollout.values, rollout.next_values, rollout.terminated, rollout.ended, c.gamma, c.lam
+        )
+        batch = make_batch(
+            self.model,
+            rollout.observations,
+            rollout.latents,
+            rollout.actions,
+            np.zeros(rollout.rewards.shape),
+            rollout.values,
+            advantages,
+            c.normalize_value,
+        )
+        return self.ppo.fit_critic(batch, self.generator)
+
+    # -- PPO after the handover ------------------------------------------------------
+
+    def rewards(self, rollout: Rollout) -> dict[str, np.ndarray]:
+        """The environment's reward (its tracking of the clip)."""
+        return {"total": rollout.rewards}
+
+    def batch_extras(self, rollout: Rollout) -> dict[str, np.ndarray]:
+        """Each step's label, for the label loss in the actor's (`extra_losses`)."""
+        _, labels = self._visited_pairs()
+        return {LABEL: labels.reshape(*rollout.rewards.shape, -1)}
+
+    def extra_losses(self, minibatch: PPOBatch, mean: torch.Tensor) -> dict[str, torch.Tensor]:
+        """The label loss (joints weighed as in the regression) at its weight now."""
+        if self._loss_weights is None:
+            self._loss_weights = self._weights(self._kept()[1])
+        error = (mean - minibatch.extras[LABEL]).square() * self._loss_weights
+        return {"label_term": self.label_weight * error.mean()}
+
+    def update(self, rollout: Rollout, rewards: dict[str, np.ndarray]) -> dict[str, float]:
+        """PPO with the label loss; the label loss on the rollout's states (before) as in DAgger."""
+        observations, labels = self._visited_pairs()
+        self._loss_weights = self._weights(self._kept()[1])
+        stats = {"label_loss_visited": self.label_loss(observations, labels, self._loss_weights)}
+        return stats | super().update(rollout, rewards)
 
     def _kept(self) -> tuple[torch.Tensor, torch.Tensor]:
         data = torch.as_tensor(self.labelled.data[: self.labelled.size])

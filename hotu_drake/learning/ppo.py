@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import torch
@@ -48,6 +48,7 @@ class PPOBatch:
     values: torch.Tensor  # normalised units, as the critic predicted them
     returns: torch.Tensor  # normalised units
     advantages: torch.Tensor
+    extras: dict[str, torch.Tensor] = field(default_factory=dict)  # per-sample tensors a learner's losses read
 
     def __len__(self) -> int:
         return self.actions.shape[0]
@@ -61,6 +62,7 @@ class PPOBatch:
             self.values[index],
             self.returns[index],
             self.advantages[index],
+            {name: x[index] for name, x in self.extras.items()},
         )
 
 
@@ -73,11 +75,13 @@ def make_batch(
     values: np.ndarray,
     advantages: np.ndarray,
     normalize_value: bool,
+    extras: dict[str, np.ndarray] | None = None,
 ) -> PPOBatch:
     """A rollout's (T, N, ...) arrays as the update's flat batch. The
     returns (advantages + values) first update the critic's value
     normaliser (with `normalize_value`); values and returns are given in
-    its units, as the critic predicts them."""
+    its units, as the critic predicts them. `extras` are (T, N, ...) arrays
+    carried along per sample."""
     returns = advantages + values
     flat = observations.reshape(-1, observations.shape[-1])
     if normalize_value:
@@ -91,6 +95,7 @@ def make_batch(
         values=to_normal(torch.as_tensor(values.reshape(-1, 1)))[:, 0],
         returns=to_normal(torch.as_tensor(returns.reshape(-1, 1)))[:, 0],
         advantages=torch.as_tensor(advantages.reshape(-1)),
+        extras={name: torch.as_tensor(x.reshape(len(flat), *x.shape[2:])) for name, x in (extras or {}).items()},
     )
 
 
@@ -134,12 +139,7 @@ class PPO:
         actor_loss = -surrogate.mean()
         bounds = bound_loss(mean)
         entropy = distribution.entropy().sum(-1).mean()
-        values = model.value(mb.observations, mb.latents)
-        critic_loss = (values - mb.returns).square()
-        if c.clip_value:
-            clipped = mb.values + (values - mb.values).clamp(-c.clip, c.clip)
-            critic_loss = torch.max(critic_loss, (clipped - mb.returns).square())
-        critic_loss = critic_loss.mean()
+        critic_loss = self._critic_loss(mb)
         loss = actor_loss + c.bound_coefficient * bounds - c.entropy_coefficient * entropy
         loss = loss + c.value_coefficient * critic_loss
         extra: dict[str, torch.Tensor] = extra_loss(mb, mean) if extra_loss else {}
@@ -166,3 +166,28 @@ class PPO:
         }
         stats |= {name: float(term.detach()) for name, term in extra.items()}
         return stats
+
+    def _critic_loss(self, mb: PPOBatch) -> torch.Tensor:
+        c = self.config
+        values = self.model.value(mb.observations, mb.latents)
+        loss = (values - mb.returns).square()
+        if c.clip_value:
+            clipped = mb.values + (values - mb.values).clamp(-c.clip, c.clip)
+            loss = torch.max(loss, (clipped - mb.returns).square())
+        return loss.mean()
+
+    def fit_critic(self, batch: PPOBatch, generator: torch.Generator) -> dict[str, float]:
+        """The critic's part of `update` alone (its epochs and minibatches):
+        for a learner whose actor learns otherwise (a clone before its PPO)."""
+        c = self.config
+        total, count = 0.0, 0
+        for _ in range(c.epochs):
+            order = torch.randperm(len(batch), generator=generator)
+            for start in range(0, len(batch), c.minibatch_size):
+                loss = c.value_coefficient * self._critic_loss(batch.take(order[start : start + c.minibatch_size]))
+                self.critic_optimizer.zero_grad()
+                loss.backward()
+                nn.utils.clip_grad_norm_(self.model.critic.parameters(), c.max_grad_norm)
+                self.critic_optimizer.step()
+                total, count = total + float(loss.detach()), count + 1
+        return {"critic_loss": total / max(count, 1)}
