@@ -158,18 +158,21 @@ def test_a_dagger_run_learns_from_the_teacher_and_reports_it_beside_the_teacher(
     """`--algo dagger` on H1's looped walk: labelled iterations in the
     metrics, and a report of 10 s episodes from the clip's start for the
     policy, the teacher and the robot standing (the teacher walks, the
-    robot standing does not)."""
+    robot standing does not); after `teacher.ppo_after`, PPO iterations on
+    the tracking reward."""
     config = tmp_path / "tiny.yaml"
     config.write_text(
-        "environment: {loop: true}\nppo: {horizon: 60}\nnetworks: {policy_hidden: [32, 32], critic_hidden: [8]}\n"
-        "teacher: {updates: 5, batch_size: 32}\ntorch_threads: 1\n"
+        "environment: {loop: true, tracking_reward: true}\nppo: {horizon: 60}\n"
+        "networks: {policy_hidden: [32, 32], critic_hidden: [8]}\n"
+        "teacher: {updates: 5, batch_size: 32, ppo_after: 120}\ntorch_threads: 1\n"
     )
     out = tmp_path / "run"
     argv = ["pretrain", "--robot", "h1", "--motions", "walk", "--algo", "dagger", "--workers", "1"]
-    assert main([*argv, "--steps", "120", "--out", str(out), "--config", str(config), "--eval-episodes", "1"]) == 0
+    assert main([*argv, "--steps", "180", "--out", str(out), "--config", str(config), "--eval-episodes", "1"]) == 0
     lines = [json.loads(line) for line in (out / "metrics.jsonl").read_text().splitlines()]
-    assert [line["iteration"] for line in lines] == [1, 2] and lines[-1]["labelled"] == 120
+    assert [line["iteration"] for line in lines] == [1, 2, 3] and lines[1]["labelled"] == 120
     assert lines[0]["beta"] == 1.0 and lines[0]["label_loss_visited"] > lines[1]["label_loss_visited"]
+    assert lines[2]["label_weight"] == 1.0 and "approx_kl" in lines[2] and 0.5 < lines[2]["reward"] <= 1.0
     evaluation = json.loads((out / "report.json").read_text())["evaluation"]
     assert set(evaluation) >= {"policy", "teacher", "standing"}
     teacher, standing = evaluation["teacher"], evaluation["standing"]

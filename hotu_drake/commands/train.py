@@ -145,7 +145,7 @@ def pretrain(args) -> int:
 
         def style(stats: dict) -> dict:  # each part group's style reward, or a clone's label losses
             if isinstance(agent, DAggerAgent):
-                return {key: stats[key] for key in ("label_loss_visited", "beta")}
+                return {key: stats[key] for key in ("label_loss_visited", "beta", "label_weight") if key in stats}
             return {g.name: stats.get(f"style/{g.name}", float("nan")) for g in agent.groups}
 
         train(
