@@ -8,6 +8,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import hotu_drake.envs  # noqa: F401  (registers the ids)
+from hotu_drake.envs.base import REFERENCE_SIZE
 from hotu_drake.errors import InputError
 from hotu_drake.motion.library import MOTIONS
 from hotu_drake.retarget.references import reference_clips
@@ -372,3 +373,30 @@ def test_the_tracking_reward_scores_the_teacher_above_standing_and_follows_a_loo
     assert plain.step(plain.unwrapped.standing_action())[1] == 0.0  # off by default: the style reward is the trainer's
     env.close()
     plain.close()
+
+
+def test_the_reference_observation_says_where_the_teachers_reference_is_against_the_robot():
+    """`reference_observation` ends the observation with the teacher's
+    reference against the robot (heading frame): nothing off at a reference
+    start, the clip's own feet; after a second of the standing pose the walk
+    has gone on ahead (its root and CoM in front, the same heading within
+    a few degrees); it needs the teacher."""
+    options = {"robot": "h1", "hands": "none", "motions": WALK, "control_rate": 60.0, "loop": True}
+    env = gym.make("hotu_drake/Imitation-v0", teacher=True, reference_observation=True, **options)
+    inner = env.unwrapped
+    robot_size = inner._observer.observation_size
+    assert env.observation_space.shape[0] == robot_size + REFERENCE_SIZE
+    observation, _ = env.reset(seed=0, options={"init": "reference", "clip": 0, "time": 0.0})
+    reference = observation[-REFERENCE_SIZE:]
+    np.testing.assert_allclose(reference[:2], 0.0, atol=1e-3)  # the root, horizontally
+    np.testing.assert_allclose(reference[3:5], [0.0, 1.0], atol=1e-3)  # no yaw between them
+    np.testing.assert_allclose(reference[11:], observation[robot_size - 6 : robot_size], atol=0.02)  # the feet
+    np.testing.assert_allclose(inner.clip_observation(0, 0.0)[-REFERENCE_SIZE:][11:], reference[11:], atol=0.02)
+    for _ in range(60):
+        observation, *_ = env.step(inner.standing_action())
+    reference = observation[-REFERENCE_SIZE:]
+    assert reference[0] > 0.15 and reference[5] > 0.15, reference  # the root and the CoM ahead
+    assert reference[4] > np.cos(np.radians(10.0)), reference
+    env.close()
+    with pytest.raises(InputError, match="teacher=True"):
+        gym.make("hotu_drake/Imitation-v0", reference_observation=True, **options)

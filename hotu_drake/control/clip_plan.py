@@ -284,6 +284,15 @@ class ClipPlan:
         }
         self._plan_com(context)
 
+    @property
+    def root_body(self):
+        """The robot's root body on the plan's plant."""
+        return self._root
+
+    def foot_body(self, name: str):
+        """Foot `name`'s body (`left_foot`, `right_foot`) on the plan's plant."""
+        return self._feet[name]
+
     @staticmethod
     def _sole_anchor(corners: np.ndarray) -> np.ndarray:
         """Where on a sole (a point in the foot's frame) the plan puts the

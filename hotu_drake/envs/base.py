@@ -36,11 +36,15 @@ from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.playback import ClipPlayback
 from hotu_drake.objects import SceneObject, place_objects
 from hotu_drake.plant import FallCheck, alignment, set_robot_state
+from hotu_drake.rotations import heading_rotation
 from hotu_drake.scenario import LIMITS, ActionInput, InitialCondition, Scenario, load_scenario
 
 log = logging.getLogger("hotu_drake.envs")
 MAX_AMP_HISTORY = 300  # frames (10 s at 30 Hz) of AMP observation kept per step
 PHASE_SIZE = 2  # `clip_phase`: the sine and cosine of where the episode is in its clip
+# `reference_features`: the teacher's reference root (3), heading (2), CoM position (3) and velocity (3) and
+# feet (2 x 3), relative to the robot's, in its heading frame
+REFERENCE_SIZE = 17
 
 # The environments' own scenario, where no `scenario=` is given.
 DEFAULT_ROBOT, DEFAULT_HANDS = "h1", "none"
@@ -117,6 +121,7 @@ class DiagramEnv(gym.Env):
         phase_observation: bool = False,
         loop: bool = False,
         reference_start_time: float | None = None,
+        reference_observation: bool = False,
     ):
         """`scenario` as `environment_scenario` makes it; `embodiment`
         overrides its robot (e.g. a resized UDH). With `teacher`, every
@@ -127,8 +132,10 @@ class DiagramEnv(gym.Env):
         teacher's and the phase's; a walk's reference goes on past its
         clip). A reference start begins at `reference_start_time` in its
         clip (s; default anywhere), dropped from up to `drop_height` as a
-        default start is (evaluation episodes then differ). Bad keywords
-        raise `InputError`."""
+        default start is (evaluation episodes then differ). With
+        `reference_observation` (and `teacher`), the observation ends with
+        where the teacher's reference is against the robot
+        (`reference_features`). Bad keywords raise `InputError`."""
         where = type(self).__name__
         amp_history = check_number(amp_history, "amp_history", where, low=1, high=MAX_AMP_HISTORY, integer=True)
         reference_init_probability = check_number(
@@ -139,6 +146,9 @@ class DiagramEnv(gym.Env):
         self.teacher = check_bool(teacher, "teacher", where)
         self.phase_observation = check_bool(phase_observation, "phase_observation", where)
         self.loop = check_bool(loop, "loop", where)
+        self.reference_observation = check_bool(reference_observation, "reference_observation", where)
+        if self.reference_observation and not self.teacher:
+            raise InputError("the reference observation is the teacher's reference: give teacher=True", where)
         if reference_start_time is not None:
             check_number(reference_start_time, "reference_start_time", where, low=0.0, high=1e6, unit="s")
         self.reference_start_time = reference_start_time
@@ -200,10 +210,12 @@ class DiagramEnv(gym.Env):
     # -- what subclasses extend ------------------------------------------------
 
     def _observation_size(self) -> int:
-        return self._observer.observation_size + (PHASE_SIZE if self.phase_observation else 0)
+        phase = PHASE_SIZE if self.phase_observation else 0
+        return self._observer.observation_size + phase + (REFERENCE_SIZE if self.reference_observation else 0)
 
     def _extra_observation(self) -> np.ndarray:
-        return self.clip_phase() if self.phase_observation else np.zeros(0)
+        phase = self.clip_phase() if self.phase_observation else np.zeros(0)
+        return np.concatenate([phase, self.reference_features() if self.reference_observation else np.zeros(0)])
 
     def _place_task(self) -> None:
         """Put task objects at their episode's start (subclasses)."""
@@ -344,6 +356,9 @@ class DiagramEnv(gym.Env):
         extra = self._extra_observation()
         if self.phase_observation:  # the clip's phase at that time, not the episode's
             extra[:PHASE_SIZE] = self._phase_at(clip_index, time_)
+        if self.reference_observation:  # on the reference: no offset, the clip's own feet
+            feet = robot[self._observer.observation_size - 6 :] if self._has_feet() else np.zeros(6)
+            extra[-REFERENCE_SIZE:] = np.r_[np.zeros(3), 0.0, 1.0, np.zeros(6), feet]
         return np.concatenate([robot, extra]).astype(np.float32)
 
     def amp_layout(self) -> dict[str, list[str]]:
@@ -447,6 +462,55 @@ class DiagramEnv(gym.Env):
             )
         state = plant.GetPositionsAndVelocities(scratch, model)
         return self._teacher().act(state, self._clip_time())
+
+    def _has_feet(self) -> bool:
+        return all(f"{side}_foot" in self.embodiment.key_bodies for side in ("left", "right"))
+
+    def reference_features(self) -> np.ndarray:
+        """Where the teacher's reference is against the robot now, in the
+        robot's heading frame: the clip's root, heading (sine and cosine of
+        the yaw between them), CoM position and velocity, and feet (zeros
+        without both), at the episode's clip time, each where the teacher
+        tracks it (moved by its `footing_shift`, as it was after the last
+        step) minus the robot's. What the teacher's action depends on besides
+        the robot's own state and the phase."""
+        teacher = self._teacher()
+        plan, reference = teacher.plan, teacher.reference_context
+        time_ = self._clip_time()
+        plan.set_reference(reference, time_)
+        frame = self._episode_frame
+        turn = frame.rotation().matrix()
+        shift = turn @ teacher.footing_shift
+
+        def placed(point):  # a point of the clip's world, where the teacher tracks it in the environment's
+            return frame @ point + shift
+
+        plant, context, model = self.sim.plant, self._plant_context, [self.sim.model]
+        pose = plant.EvalBodyPoseInWorld(context, self._root)
+        heading = heading_rotation(pose.rotation().matrix())
+        reference_pose = teacher.plant.EvalBodyPoseInWorld(reference, plan.root_body)
+        yaw = heading.T @ heading_rotation(turn @ reference_pose.rotation().matrix())
+        com_reference, com_velocity_reference, _ = plan.com_reference(time_)
+        com = plant.CalcCenterOfMassPositionInWorld(context, model)
+        com_velocity = plant.CalcCenterOfMassTranslationalVelocityInWorld(context, model)
+        feet = np.zeros(6)
+        if self._has_feet():
+            feet = np.concatenate(
+                [
+                    placed(teacher.plant.EvalBodyPoseInWorld(reference, plan.foot_body(f"{side}_foot")).translation())
+                    - pose.translation()
+                    for side in ("left", "right")
+                ]
+            )
+        return np.concatenate(
+            [
+                heading.T @ (placed(reference_pose.translation()) - pose.translation()),
+                [yaw[1, 0], yaw[0, 0]],
+                heading.T @ (placed(com_reference) - com),
+                heading.T @ (turn @ com_velocity_reference - com_velocity),
+                (feet.reshape(2, 3) @ heading).ravel(),  # rows: heading.T @ each
+            ]
+        )
 
     def clip_phase(self) -> np.ndarray:
         """Where the episode is in its clip now, as the sine and cosine of an

@@ -442,6 +442,23 @@ class WholeBodyController(LeafSystem):
             ends.append(plant.EvalBodyPoseInWorld(scratch, pelvis).translation())
         return float(np.linalg.norm((ends[1] - ends[0])[:2]))
 
+    @property
+    def plant(self) -> MultibodyPlant:
+        """The controller's own plant (the robot alone)."""
+        return self._plant
+
+    @property
+    def reference_context(self) -> Context:
+        """The controller's context of the reference (`plan.set_reference` sets it; `act` sets it anew)."""
+        return self._reference
+
+    @property
+    def footing_shift(self) -> np.ndarray:
+        """Where the clip is tracked from against where it is (m, horizontal,
+        in the clip's world): the planted feet's offset from the clip's, eased
+        (`_footing`)."""
+        return self._shift.copy()
+
     def reset(self) -> None:
         """Forget what the controller carried from step to step (the QP's warm
         start, where the feet stood): a new episode."""
