@@ -13,8 +13,11 @@ import numpy as np
 import pytest
 
 from hotu_drake.commands.train import main
-from hotu_drake.learning.checkpoint import read_checkpoint
+from hotu_drake.embodiment import load as load_embodiment
+from hotu_drake.envs.base import REFERENCE_SIZE
+from hotu_drake.learning.checkpoint import load_checkpoint, read_checkpoint
 from hotu_drake.scenario import InitialCondition, PolicyCheckpoint, Scenario
+from hotu_drake.systems.observation import observation_size
 
 TINY = """\
 ppo: {horizon: 32, minibatch_size: 32, epochs: 2}
@@ -162,7 +165,7 @@ def test_a_dagger_run_learns_from_the_teacher_and_reports_it_beside_the_teacher(
     the tracking reward."""
     config = tmp_path / "tiny.yaml"
     config.write_text(
-        "environment: {loop: true, tracking_reward: true}\nppo: {horizon: 60}\n"
+        "environment: {loop: true, tracking_reward: true, reference_observation: true}\nppo: {horizon: 60}\n"
         "networks: {policy_hidden: [32, 32], critic_hidden: [8]}\n"
         "teacher: {updates: 5, batch_size: 32, ppo_after: 120}\ntorch_threads: 1\n"
     )
@@ -179,6 +182,8 @@ def test_a_dagger_run_learns_from_the_teacher_and_reports_it_beside_the_teacher(
     assert teacher["fall_rate"] == 0.0 and teacher["mean_episode_seconds"] == pytest.approx(10.0)
     assert teacher["travel_ratio"] > 0.6 and standing["travel_ratio"] < 0.1, (teacher, standing)
     assert read_checkpoint(out / "checkpoint.pt", kind="training")["state"]["labelled"]["size"] == 120
+    network, _ = load_checkpoint(out / "policy.pt")  # the robot's observation, the phase and the reference's
+    assert network.config.observation_size == observation_size(load_embodiment("h1", "none")) + 2 + REFERENCE_SIZE
     headline = json.loads(capsys.readouterr().err.strip().splitlines()[-1])
     assert {"policy_fall_rate", "teacher_travel_ratio", "standing_travel_ratio"} <= set(headline)
     picture = tmp_path / "trace.png"  # a clone has no latents; its trace is drawn all the same

@@ -31,9 +31,9 @@ over `teacher.label_fade_samples` (`label_weight` in the metrics). The
 critic learns the reward's values from the first iteration, so the
 handover starts with one.
 
-The policy is the same `ActorCritic` the style learners train. A clone that observes the clip's phase (the
-preset's) cannot be deployed by a scenario yet: `!PolicyCheckpoint`
-gives no phase and refuses the file.
+The policy is the same `ActorCritic` the style learners train. A clone
+that observes the clip's phase (the preset's) cannot be deployed by a
+scenario yet: `!PolicyCheckpoint` gives no phase and refuses the file.
 """
 
 from __future__ import annotations
@@ -82,7 +82,7 @@ class DAggerAgent(BaseAgent):
         self.labelled = ReplayBuffer(teacher.buffer_size, (observation_size + action_size,))
         self._observation_size = observation_size
         self._visited: list[tuple[np.ndarray, np.ndarray]] = []
-        self._loss_weights: torch.Tensor | None = None  # the label loss's joint weights in PPO's updates
+        self._loss_weights = torch.ones(action_size)  # the label loss's joint weights in PPO's updates (`update`)
         self.latents = LatentSchedule([], 0, self.num_envs, 1, 2, self.rng)  # none (as `Agent.latents` for `trace`)
         self._reset_envs()
 
@@ -197,9 +197,7 @@ class DAggerAgent(BaseAgent):
         return {LABEL: labels.reshape(*rollout.rewards.shape, -1)}
 
     def extra_losses(self, minibatch: PPOBatch, mean: torch.Tensor) -> dict[str, torch.Tensor]:
-        """The label loss (joints weighed as in the regression) at its weight now."""
-        if self._loss_weights is None:
-            self._loss_weights = self._weights(self._kept()[1])
+        """The label loss (joints weighed as in the regression, `update` sets them) at its weight now."""
         error = (mean - minibatch.extras[LABEL]).square() * self._loss_weights
         return {"label_term": self.label_weight * error.mean()}
 
