@@ -184,9 +184,9 @@ class PPO:
         for _ in range(c.epochs):
             order = torch.randperm(len(batch), generator=generator)
             for start in range(0, len(batch), c.minibatch_size):
-                loss = c.value_coefficient * self._critic_loss(batch.take(order[start : start + c.minibatch_size]))
+                loss = self._critic_loss(batch.take(order[start : start + c.minibatch_size]))
                 self.critic_optimizer.zero_grad()
-                loss.backward()
+                (c.value_coefficient * loss).backward()
                 nn.utils.clip_grad_norm_(self.model.critic.parameters(), c.max_grad_norm)
                 self.critic_optimizer.step()
                 total, count = total + float(loss.detach()), count + 1
