@@ -54,12 +54,13 @@ class ImitationEnv(DiagramEnv):
         super().__init__(scenario, reference_clips(emb, motions), emb, **options)
         where = type(self).__name__
         self.tracking_reward = check_bool(tracking_reward, "tracking_reward", where)
-        self._tracking = ClipTracking(self.sim.plant, self.sim.model, emb, self.clips, self.loop)
+        self._tracking = ClipTracking(self.sim.plant, self.sim.model, emb, self._observer, self.clips, self.loop)
 
     def _task_reward(self, info: dict) -> float:
         if not self.tracking_reward or self._episode_clip is None:
             return 0.0
-        errors = self._tracking.errors(self._plant_context, self._episode_clip, self._clip_time())
+        robot = self._observation_port.Eval(self._context)
+        errors = self._tracking.errors(robot, self._episode_clip, self._clip_time())
         terms = tracking_terms(errors, CLIP_WEIGHTS, CLIP_SCALES)
         info["tracking"] = {k: v for k, v in terms.items() if k != "total"}
         return terms["total"]

@@ -22,8 +22,7 @@ from pydrake.multibody.plant import MultibodyPlant
 from hotu_drake.control.clip_plan import ClipPlan
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.motion.clip import MotionClip
-from hotu_drake.rotations import heading_rotation
-from hotu_drake.systems.observation import key_body_roles
+from hotu_drake.systems.observation import ROOT_FEATURES, ROOT_LINEAR_VELOCITY, ObservationSystem
 
 # A clip's terms: r = 0.5 exp(-5 mean dq^2) + 0.2 exp(-10 mean |dp_key|^2) + 0.15 exp(-40 dz_root^2)
 #   + 0.15 exp(-2 |dv_root|^2). MimicKit's DeepMimic weights (pose 0.5, root pose 0.15, root velocity 0.1,
@@ -40,19 +39,30 @@ def tracking_terms(squared_errors: dict[str, float], weights: dict[str, float], 
 
 
 class ClipTracking:
-    """The tracking reward of a robot (`model` of `plant`) against reference
-    clips, each followed as the teacher follows it (`ClipPlan`: a looped
-    clip's later passes placed where the last one ended). Plans are made
-    when a clip is first tracked."""
+    """The tracking reward of a robot (`model` of `plant`, observed by
+    `observer`) against reference clips, each followed as the teacher
+    follows it (`ClipPlan`: a looped clip's later passes placed where the
+    last one ended). The robot and the reference are compared in the
+    observation's own features (`ObservationSystem`: root height, heading-
+    frame velocity, joints, hands and feet relative to the root). Plans are
+    made when a clip is first tracked."""
 
     def __init__(
-        self, plant: MultibodyPlant, model, embodiment: Embodiment, clips: list[MotionClip], loop: bool
+        self,
+        plant: MultibodyPlant,
+        model,
+        embodiment: Embodiment,
+        observer: ObservationSystem,
+        clips: list[MotionClip],
+        loop: bool,
     ) -> None:
         self.plant, self.model, self.embodiment, self.clips, self.loop = plant, model, embodiment, clips, loop
+        self.observer = observer
         self._context = plant.CreateDefaultContext()  # the reference's state
-        self._joints = np.array([plant.GetJointByName(n, model).position_start() for n in embodiment.joint_names])
-        self._root = plant.GetBodyByName(embodiment.spec.root.name, model)
-        self._key_bodies = [plant.GetBodyByName(embodiment.key_bodies[r], model) for r in key_body_roles(embodiment)]
+        self._observer_context = observer.CreateDefaultContext()  # its observation
+        n = len(embodiment.joint_names)
+        self._joints = observer.joint_position_columns
+        self._keys = slice(ROOT_FEATURES + 2 * n, observer.observation_size)
         self._plans: dict[int, ClipPlan] = {}
 
     def plan(self, clip_index: int) -> ClipPlan:
@@ -63,26 +73,18 @@ class ClipTracking:
             plan = self._plans[clip_index] = ClipPlan(clip, self.plant, self.model, self.embodiment, scratch, self.loop)
         return plan
 
-    def _root_features(self, context) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
-        """The root's height and heading-frame velocity, the key
-        bodies relative to it (heading frame), and the joint positions."""
-        plant = self.plant
-        pose = plant.EvalBodyPoseInWorld(context, self._root)
-        heading = heading_rotation(pose.rotation().matrix())
-        velocity = plant.EvalBodySpatialVelocityInWorld(context, self._root).translational()
-        keys = np.array([plant.EvalBodyPoseInWorld(context, b).translation() for b in self._key_bodies])
-        relative = (keys - pose.translation()) @ heading  # rows: heading.T @ each
-        return pose.translation()[2], heading.T @ velocity, relative, plant.GetPositions(context)[self._joints]
-
-    def errors(self, plant_context, clip_index: int, clip_time: float) -> dict[str, float]:
-        """The squared errors (`CLIP_WEIGHTS`' terms) of the robot in
-        `plant_context` against clip `clip_index` at `clip_time`."""
+    def errors(self, observation: np.ndarray, clip_index: int, clip_time: float) -> dict[str, float]:
+        """The squared errors (`CLIP_WEIGHTS`' terms) of the robot whose
+        observation (`ObservationSystem`'s) is `observation` against clip
+        `clip_index` at `clip_time`."""
         self.plan(clip_index).set_reference(self._context, clip_time)
-        height, velocity, keys, joints = self._root_features(plant_context)
-        reference_height, reference_velocity, reference_keys, reference_joints = self._root_features(self._context)
+        self.observer.fix_inputs_from_plant(self._observer_context, self.plant, self._context, self.model)
+        reference = self.observer.GetOutputPort("observation").Eval(self._observer_context)
+        keys = (reference[self._keys] - observation[self._keys]).reshape(-1, 3)
+        velocity = reference[ROOT_LINEAR_VELOCITY] - observation[ROOT_LINEAR_VELOCITY]
         return {
-            "joints": float(np.mean(np.square(reference_joints - joints))),
-            "key_bodies": float(np.mean(np.sum(np.square(reference_keys - keys), -1))) if len(keys) else 0.0,
-            "root_height": float((reference_height - height) ** 2),
-            "root_velocity": float(np.sum(np.square(reference_velocity - velocity))),
+            "joints": float(np.mean(np.square(reference[self._joints] - observation[self._joints]))),
+            "key_bodies": float(np.mean(np.sum(np.square(keys), -1))) if len(keys) else 0.0,
+            "root_height": float((reference[0] - observation[0]) ** 2),
+            "root_velocity": float(np.sum(np.square(velocity))),
         }

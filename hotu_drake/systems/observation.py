@@ -30,6 +30,7 @@ from hotu_drake.rotations import heading_rotation
 # a foot with the ankle).
 PART_KEY_BODIES = {"wrist": HAND_ROLES, "ankle": FOOT_ROLES}
 ROOT_FEATURES = 1 + 6 + 3 + 3  # height, tangent and normal, linear and angular velocity
+ROOT_LINEAR_VELOCITY = slice(7, 10)  # the root's linear velocity (heading frame) among them
 ROOT_LABELS = (
     "root:height",
     *(f"root:tangent_{a}" for a in "xyz"),
@@ -125,7 +126,7 @@ class ObservationSystem(LeafSystem):
         features = np.empty(self.observation_size)
         features[0] = origin[2]
         features[1:4], features[4:7] = local[:, 0], local[:, 2]
-        features[7:10] = heading.T @ velocity.translational()
+        features[ROOT_LINEAR_VELOCITY] = heading.T @ velocity.translational()
         features[10:13] = heading.T @ velocity.rotational()
         features[ROOT_FEATURES : ROOT_FEATURES + n] = state[self._q]
         features[ROOT_FEATURES + n : ROOT_FEATURES + 2 * n] = state[self._v]
