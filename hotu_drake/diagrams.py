@@ -8,6 +8,7 @@
     perturbation cubes       systems.perturbation.add_perturbation_cubes
     interaction graph        systems.interaction_graph.AddInteractionGraph
     PD targets (driver)      standing pose | systems.reference | systems.policy
+                               (a clip-following clone with systems.motion_reference)
                              | systems.skill (over systems.policy; a transfer layer
                                with systems.transfer_reference)
                              | exported `action` input | systems.base_command
@@ -68,6 +69,7 @@ from hotu_drake.plant import (
 )
 from hotu_drake.retarget.references import reference_clip
 from hotu_drake.scenario import (
+    LATENT_CHOICES,
     ActionInput,
     BaseTwist,
     InitialCondition,
@@ -81,11 +83,12 @@ from hotu_drake.scenario import (
 from hotu_drake.systems.base_command import AddPlanarBaseCommand
 from hotu_drake.systems.interaction_graph import GOAL_SIZE, AddInteractionGraph, InteractionGraphSystem
 from hotu_drake.systems.latents import AddLatentSampler
+from hotu_drake.systems.motion_reference import AddMotionReference
 from hotu_drake.systems.object_holder import AddObjectHolder
 from hotu_drake.systems.observation import AddObservation, ObservationSystem
 from hotu_drake.systems.pd import AddActionToTargets, AddPdControl
 from hotu_drake.systems.perturbation import AddPerturbation, add_perturbation_cubes, place_perturbation_cubes
-from hotu_drake.systems.policy import AddPolicy, load_policy
+from hotu_drake.systems.policy import AddPolicy, load_policy, observation_extras
 from hotu_drake.systems.reference import AddReferenceMotion, ReferenceMotionSource
 from hotu_drake.systems.skill import AddSkillPolicy, load_skill_policy
 from hotu_drake.systems.transfer_reference import AddTransferReference, TransferReference
@@ -411,6 +414,8 @@ def run_scenario(scenario: Scenario, duration: float | None = None, meshcat=None
         controller = sim.systems["whole_body_controller"]
         figures["reference_travel_m"] = round(controller.reference_travel(end), 4)
         figures["catch_steps"] = controller.catch_steps()
+    if "motion_reference" in sim.systems:  # a controller following a clip
+        figures["reference_travel_m"] = round(sim.systems["motion_reference"].reference_travel(end), 4)
     return figures
 
 
@@ -456,13 +461,27 @@ def _(driver: WholeBodyTracking, parts: DiagramParts) -> OutputPort:
 @add_driver.register
 def _(driver: PolicyCheckpoint, parts: DiagramParts) -> OutputPort:
     goal = GOAL_SIZE if parts.graph is not None else 0  # a one-level task policy also sees the goal
-    network, meta = load_policy(parts.scenario.resolve(driver.checkpoint), parts.embodiment, goal)
-    observation = parts.observation().GetOutputPort("observation")
-    if network.config.observation_size != observation.size():
-        both = parts.builder.AddNamedSystem("policy_observation", Multiplexer([observation.size(), GOAL_SIZE]))
-        parts.builder.Connect(observation, both.get_input_port(0))
-        parts.builder.Connect(parts.graph.GetOutputPort("goal"), both.get_input_port(1))
-        observation = both.get_output_port()
+    path = parts.scenario.resolve(driver.checkpoint)
+    network, meta = load_policy(path, parts.embodiment, goal)
+    columns = [parts.observation().GetOutputPort("observation")]
+    extras = observation_extras(meta)
+    if extras:
+        columns += _followed_motion(driver, parts, path, meta, extras)
+    elif driver.latents not in LATENT_CHOICES:
+        raise InputError(
+            f"{path}: a motion by name is for a controller that follows a clip (observes its phase); "
+            f"give this one {' or '.join(LATENT_CHOICES)}",
+            parts.scenario.source or None,
+            "driver.latents",
+        )
+    if network.config.observation_size != sum(column.size() for column in columns):
+        columns.append(parts.graph.GetOutputPort("goal"))
+    observation = columns[0]
+    if len(columns) > 1:
+        stacked = parts.builder.AddNamedSystem("policy_observation", Multiplexer([c.size() for c in columns]))
+        for index, column in enumerate(columns):
+            parts.builder.Connect(column, stacked.get_input_port(index))
+        observation = stacked.get_output_port()
     rate = parts.scenario.control_rate
     latents = None
     if network.config.latent_sizes and driver.latents == "prior":
@@ -471,6 +490,41 @@ def _(driver: PolicyCheckpoint, parts: DiagramParts) -> OutputPort:
         low, high = int(prior["resample_min"]), int(prior["resample_max"])
         latents = AddLatentSampler(parts.builder, groups, int(prior["size"]), low, high, rate, driver.latent_seed)
     return _policy_targets(parts, network, observation, latents)
+
+
+def _followed_motion(
+    driver: PolicyCheckpoint, parts: DiagramParts, path, meta: dict, extras: tuple[str, ...]
+) -> list[OutputPort]:
+    """The `extras` (`phase`, `reference`) of the motion a clip-following
+    controller is asked for (`driver.latents`, one of its checkpoint's
+    motions), from a `MotionReference` placed where the robot starts."""
+    scenario, where = parts.scenario, parts.scenario.source or None
+    motions = [str(motion) for motion in meta.get("meta", {}).get("motions", [])]
+    if driver.latents not in motions:
+        raise InputError(
+            f"{path}: the controller follows a clip: give latents one of its motions ({', '.join(motions)}), "
+            f"not {driver.latents!r}",
+            where,
+            "driver.latents",
+        )
+    rate = meta.get("control_rate")
+    if rate and abs(float(rate) - scenario.control_rate) > 1e-9:
+        raise InputError(f"{path}: trained at {rate:g} Hz; give the scenario that control_rate", where, "control_rate")
+    clip = reference_clip(driver.latents, parts.embodiment, scenario.base_dir or None)
+    loop = bool(meta["meta"]["config"]["environment"].get("loop", False))
+    follower = AddMotionReference(
+        parts.builder,
+        parts.plant,
+        parts.model,
+        parts.embodiment,
+        clip,
+        1.0 / scenario.control_rate,
+        loop,
+        start_time=max(scenario.initial.reference_time, 0.0),
+    )
+    ports = [follower.GetOutputPort(extra) for extra in extras]
+    parts.outputs |= {f"motion_{extra}": port for extra, port in zip(extras, ports)}
+    return ports
 
 
 def _policy_targets(parts: DiagramParts, network, observation: OutputPort, latents) -> OutputPort:

@@ -149,6 +149,18 @@ def alignment(reference: ClipPlayback, time: float) -> RigidTransform:
     return RigidTransform(RotationMatrix(yaw.T), -yaw.T @ [position[0], position[1], 0.0])
 
 
+def move_free_body(plant: MultibodyPlant, context, body, transform: RigidTransform) -> None:
+    """Move a free body's pose and spatial velocity (world) by `transform`:
+    a robot's state seen in another frame (a clip's, `alignment`)."""
+    pose = plant.GetFreeBodyPose(context, body)
+    velocity = plant.EvalBodySpatialVelocityInWorld(context, body)
+    turn = transform.rotation().matrix()
+    plant.SetFreeBodyPose(context, body, transform @ pose)
+    plant.SetFreeBodySpatialVelocity(
+        context, body, SpatialVelocity(turn @ velocity.rotational(), turn @ velocity.translational())
+    )
+
+
 def _reach(inspector, geometries) -> float:
     """How far any point of these collision geometries is from their body's origin."""
     far = 0.0

@@ -28,6 +28,7 @@ from pydrake.visualization import VisualizationConfig
 
 from hotu_drake.embodiment import EMBODIMENT_NAMES, HANDS_VARIANTS
 from hotu_drake.errors import InputError, check_bool, check_choice, check_number, check_vector
+from hotu_drake.motion.library import is_library_motion
 from hotu_drake.objects import OBJECTS, SceneObject
 from hotu_drake.resources import systems_dir
 from hotu_drake.systems.perturbation import CubeLaunch
@@ -75,13 +76,19 @@ class ReferenceTracking:
     loop: bool = True
 
 
+LATENT_CHOICES = ("prior", "zero")  # `PolicyCheckpoint.latents` besides a motion
+
+
 @dataclass
 class PolicyCheckpoint:
     """A policy checkpoint (written by `python -m hotu_drake.train`) sets the
     PD targets at the scenario's `control_rate`, from the ObservationSystem.
     Its latents are drawn from the prior it was trained with (`prior`,
-    seeded by `latent_seed`) or held at zero (`zero`). A path relative to
-    the scenario file."""
+    seeded by `latent_seed`) or held at zero (`zero`). A controller that
+    follows a clip (a clone that observes its phase, or its reference:
+    `systems.motion_reference`) is asked for one of its motions by name
+    (`walk`, or a `.npz` clip of the embodiment), followed from where the
+    robot starts. Paths relative to the scenario file."""
 
     checkpoint: str = ""
     latents: str = "prior"
@@ -332,7 +339,13 @@ class Scenario:
         if isinstance(self.driver, PolicyCheckpoint):
             if not self.resolve(self.driver.checkpoint).is_file():
                 raise InputError(f"policy checkpoint {self.driver.checkpoint!r} not found", source, "driver.checkpoint")
-            check_choice(self.driver.latents, "driver.latents", ("prior", "zero"), source)
+            latents = self.driver.latents
+            if latents not in LATENT_CHOICES and not is_library_motion(latents) and not str(latents).endswith(".npz"):
+                raise InputError(
+                    f"{latents!r} is not one of {', '.join(LATENT_CHOICES)}, nor a library motion or .npz clip",
+                    source,
+                    "driver.latents",
+                )
             check_number(self.driver.latent_seed, "driver.latent_seed", source, low=0, high=2**31 - 1, integer=True)
         if isinstance(self.driver, SkillCheckpoint):
             for name in ("skill", "llc"):

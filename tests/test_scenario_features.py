@@ -217,3 +217,92 @@ def test_a_scenario_that_varies_runs_the_member_its_seed_draws(tmp_path):
     assert low <= np.hypot(*start[:2]) <= high and drawn["box.target"] == list(np.round(target, 4))
     written, drawn = load_scenario("box_udh").drawn()  # nothing varies: as written
     assert drawn == {} and written.to_yaml() == load_scenario("box_udh").to_yaml()
+
+
+def _clip_following_checkpoint(tmp_path, network, inner) -> str:
+    """A checkpoint of `network` recorded as a DAgger clone of `inner`'s
+    walk that observes its phase and reference, trained at its rate."""
+    environment = {"phase_observation": True, "reference_observation": True, "loop": True}
+    meta = {"algo": "dagger", "motions": ["walk"], "config": {"environment": environment}}
+    path = save_checkpoint(tmp_path / "clone.pt", network, "h1", "none", meta, control_rate=1.0 / inner.control_period)
+    return str(path)
+
+
+def test_a_clip_following_clone_replays_its_environments_episode(tmp_path):
+    """A clone that observes its clip's phase and reference is asked for
+    its motion by name (`latents: walk`): the diagram's policy observes
+    what the environment gave it (`systems.motion_reference`), step by
+    step from the same reference start, and the run reports the clip's
+    travel."""
+    import dataclasses
+
+    import gymnasium as gym
+
+    import hotu_drake.envs  # noqa: F401
+    from hotu_drake.diagrams import run_scenario
+    from hotu_drake.learning.networks import PolicyConfig, PolicyNetwork
+
+    env = gym.make(
+        "hotu_drake/Imitation-v0",
+        robot="h1",
+        hands="none",
+        motions=["walk"],
+        control_rate=60.0,
+        loop=True,
+        teacher=True,
+        phase_observation=True,
+        reference_observation=True,
+    )
+    inner = env.unwrapped
+    torch.manual_seed(3)
+    size, actions = env.observation_space.shape[0], env.action_space.shape[0]
+    offset = tuple(float(a) for a in inner.standing_action())
+    network = PolicyNetwork(PolicyConfig(size, actions, {}, (64,), action_offset=offset))
+    path = _clip_following_checkpoint(tmp_path, network, inner)
+    observation, _ = env.reset(seed=0, options={"init": "reference", "clip": 0, "time": 0.0})
+    env_observations = [observation]
+    for _ in range(10):
+        with torch.no_grad():
+            action = network(torch.as_tensor(observation, dtype=torch.float32)[None], {})[0].numpy()
+        observation, *_ = env.step(action)
+        env_observations.append(observation)
+    initial = InitialCondition(drop_height=0.0, reference_time=0.0, motion="walk")
+    driver = PolicyCheckpoint(path, latents="walk")
+    scenario = dataclasses.replace(inner.sim.scenario, driver=driver, initial=initial, objects=[])
+    sim = build_simulation(scenario)
+    stacked = sim.diagram.GetSubsystemByName("policy_observation")
+    for step, expected in enumerate(env_observations):
+        if step:
+            sim.simulator.AdvanceTo(step * inner.control_period)
+        given = stacked.get_output_port().Eval(stacked.GetMyContextFromRoot(sim.simulator.get_context()))
+        np.testing.assert_allclose(given, expected, atol=1e-4, err_msg=f"step {step}")
+    figures = run_scenario(dataclasses.replace(scenario, duration=1.0))
+    assert figures["reference_travel_m"] > 0.2  # the walk's pelvis over its first second
+    env.close()
+
+
+def test_a_clip_following_clone_needs_one_of_its_motions_at_its_rate(tmp_path):
+    import gymnasium as gym
+
+    import hotu_drake.envs  # noqa: F401
+    from hotu_drake.learning.networks import PolicyConfig, PolicyNetwork
+
+    options = {"robot": "h1", "hands": "none", "motions": ["walk"], "control_rate": 60.0, "teacher": True}
+    env = gym.make("hotu_drake/Imitation-v0", phase_observation=True, reference_observation=True, **options)
+    size, actions = env.observation_space.shape[0], env.action_space.shape[0]
+    path = _clip_following_checkpoint(tmp_path, PolicyNetwork(PolicyConfig(size, actions, {})), env.unwrapped)
+    env.close()
+    scenario = Scenario(embodiment="h1", driver=PolicyCheckpoint(path, latents="prior"), control_rate=60.0)
+    with pytest.raises(InputError, match="driver.latents.*one of its motions \\(walk\\)"):
+        build_simulation(scenario)
+    scenario.driver.latents = "squat"
+    with pytest.raises(InputError, match="not 'squat'"):
+        build_simulation(scenario)
+    scenario.driver.latents, scenario.control_rate = "walk", 30.0
+    with pytest.raises(InputError, match="trained at 60 Hz"):
+        build_simulation(scenario)
+    with pytest.raises(InputError, match="moonwalk.*nor a library motion"):
+        Scenario(embodiment="h1", driver=PolicyCheckpoint(path, latents="moonwalk")).validate()
+    other = save_checkpoint(tmp_path / "plain.pt", policy_for(embodiment.load("h1", "none")), "h1", "none")
+    with pytest.raises(InputError, match="a motion by name is for a controller that follows a clip"):
+        build_simulation(Scenario(embodiment="h1", driver=PolicyCheckpoint(str(other), latents="walk")))

@@ -7,6 +7,7 @@ import pytest
 from pydrake.multibody.math import SpatialVelocity
 
 from hotu_drake import embodiment
+from hotu_drake.control import footing
 from hotu_drake.control.clip_plan import ClipPlan, standing_clip
 from hotu_drake.diagrams import build_simulation
 from hotu_drake.errors import InputError
@@ -351,7 +352,7 @@ def test_bruces_plan_follows_its_line_feet(monkeypatch):
         return False
 
     assert not falls()
-    monkeypatch.setattr(whole_body, "LINE_FOOTING_EASING", whole_body.FOOTING_EASING)
+    monkeypatch.setattr(footing, "LINE_FOOTING_EASING", footing.FOOTING_EASING)
     assert falls()
 
 
@@ -374,7 +375,7 @@ def test_the_back_foot_of_a_lunge_stands_on_its_toes(monkeypatch):
     # ... and ends where the clip does, its return step not thrown ahead (`PLANTED_LEG_POSTURE`; measured
     # 0.13 m from the clip's end, key bodies 0.095 m RMS; 0.45 and 0.23 with the legs' posture held whole).
     assert report["end_offset_m"] < 0.25 and report["key_body_rms_m"] < 0.15, report
-    monkeypatch.setattr(whole_body, "PLANTED_TOE_PITCH", np.inf)
+    monkeypatch.setattr(footing, "PLANTED_TOE_PITCH", np.inf)
     flat = perform(clip).report
     performed = not flat["fell"] and not flat["catch_steps"]
     assert not (performed and flat["end_offset_m"] < 0.25 and flat["key_body_rms_m"] < 0.15), flat
@@ -432,7 +433,7 @@ def test_a_foot_lifted_in_place_stays_on_its_toes(monkeypatch):
     lunge = lifts / clip.fps < 3.2  # the heel up and down (1.27-1.67 s, 2.67-3.07 s); then the side lunge's steps
     assert lunge.sum() >= 20 and in_place[lunge].all() and not in_place[~lunge].any()
     assert not any(plan.lifted_in_place("right_foot", f / clip.fps) for f in range(clip.num_frames))
-    late = [f for f in lifts[lunge] if plan.swing_progress("left_foot", f / clip.fps) >= whole_body.TOE_SWING]
+    late = [f for f in lifts[lunge] if plan.swing_progress("left_foot", f / clip.fps) >= footing.TOE_SWING]
     assert len(late) >= 8
 
     def pushing(frame: int) -> bool:

@@ -39,7 +39,7 @@ CATCH_REACH = 0.6
 # up to the falling body's tasks, and H1's catches scraped 5-10 cm along the floor (its turning walk: 0 of 5 up).
 CATCH_WEIGHT = 5.0
 # s: through a catch and this long after its landing, the clip is tracked from where the feet stand with this
-# time constant, not `whole_body.FOOTING_EASING`'s 0.6 s: at 0.6 the centre of mass was pulled back toward the
+# time constant, not `footing.FOOTING_EASING`'s 0.6 s: at 0.6 the centre of mass was pulled back toward the
 # footprint the robot had stepped off, and stepped out again (H1's turning walk from ten starts: 37 catch steps,
 # 23 at 0.15 s; all ten up either way).
 CATCH_FOOTING_TIME, CATCH_FOOTING_EASING = 1.0, 0.15

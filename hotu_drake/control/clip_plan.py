@@ -349,6 +349,16 @@ class ClipPlan:
         placement = self.placement(index)
         return placement.rotation @ self.playback.root_pose_at(clip_time)[1] + placement.shift
 
+    def travel(self, body, start: float, duration: float) -> float:
+        """How far (m, horizontally) `body` (of the plan's plant) moves in
+        the clip over `duration` s from `start` (a loop carrying its root
+        motion on)."""
+        scratch, ends = self.plant.CreateDefaultContext(), []
+        for time in (start, start + duration):
+            self.set_reference(scratch, time)
+            ends.append(self.plant.EvalBodyPoseInWorld(scratch, body).translation())
+        return float(np.linalg.norm((ends[1] - ends[0])[:2]))
+
     def velocities(self, time: float) -> np.ndarray:
         """The plant's generalized velocities in the clip's state at `time`
         (those `set_reference` sets, with no context to set: the floating

@@ -25,7 +25,6 @@ from dataclasses import dataclass
 import gymnasium as gym
 import numpy as np
 from pydrake.math import RigidTransform
-from pydrake.multibody.math import SpatialVelocity
 
 from hotu_drake import embodiment as embodiments
 from hotu_drake.diagrams import Simulation, build_simulation
@@ -35,16 +34,12 @@ from hotu_drake.errors import InputError, check_bool, check_choice, check_number
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.playback import ClipPlayback
 from hotu_drake.objects import SceneObject, place_objects
-from hotu_drake.plant import FallCheck, alignment, set_robot_state
-from hotu_drake.rotations import heading_rotation
+from hotu_drake.plant import FallCheck, alignment, move_free_body, set_robot_state
 from hotu_drake.scenario import LIMITS, ActionInput, InitialCondition, Scenario, load_scenario
+from hotu_drake.systems.motion_reference import PHASE_SIZE, REFERENCE_SIZE, clip_phase, reference_features
 
 log = logging.getLogger("hotu_drake.envs")
 MAX_AMP_HISTORY = 300  # frames (10 s at 30 Hz) of AMP observation kept per step
-PHASE_SIZE = 2  # `clip_phase`: the sine and cosine of where the episode is in its clip
-# `reference_features`: the teacher's reference root (3), heading (2), CoM position (3) and velocity (3) and
-# feet (2 x 3), relative to the robot's, in its heading frame
-REFERENCE_SIZE = 17
 
 # The environments' own scenario, where no `scenario=` is given.
 DEFAULT_ROBOT, DEFAULT_HANDS = "h1", "none"
@@ -452,14 +447,7 @@ class DiagramEnv(gym.Env):
         plant, model, scratch = self.sim.plant, self.sim.model, self._scratch_plant
         plant.SetPositionsAndVelocities(scratch, model, plant.GetPositionsAndVelocities(self._plant_context, model))
         if self.embodiment.floating_base and not self.scenario.fixed_base:
-            back = self._episode_frame.inverse()
-            pose = plant.GetFreeBodyPose(scratch, self._root)
-            velocity = plant.EvalBodySpatialVelocityInWorld(scratch, self._root)
-            turn = back.rotation().matrix()
-            plant.SetFreeBodyPose(scratch, self._root, back @ pose)
-            plant.SetFreeBodySpatialVelocity(
-                scratch, self._root, SpatialVelocity(turn @ velocity.rotational(), turn @ velocity.translational())
-            )
+            move_free_body(plant, scratch, self._root, self._episode_frame.inverse())
         state = plant.GetPositionsAndVelocities(scratch, model)
         return self._teacher().act(state, self._clip_time())
 
@@ -467,49 +455,33 @@ class DiagramEnv(gym.Env):
         return all(f"{side}_foot" in self.embodiment.key_bodies for side in ("left", "right"))
 
     def reference_features(self) -> np.ndarray:
-        """Where the teacher's reference is against the robot now, in the
-        robot's heading frame: the clip's root, heading (sine and cosine of
-        the yaw between them), CoM position and velocity, and feet (zeros
-        without both), at the episode's clip time, each where the teacher
-        tracks it (moved by its `footing_shift`, as it was after the last
-        step) minus the robot's. What the teacher's action depends on besides
-        the robot's own state and the phase."""
+        """Where the teacher's reference is against the robot now
+        (`systems.motion_reference.reference_features`), at the episode's
+        clip time, where the teacher tracks it (its `footing_shift` as it
+        was after the last step): what the teacher's action depends on
+        besides the robot's own state and the phase."""
         teacher = self._teacher()
-        plan, reference = teacher.plan, teacher.reference_context
+        plan, reference, clip_plant = teacher.plan, teacher.reference_context, teacher.plant
         time_ = self._clip_time()
         plan.set_reference(reference, time_)
-        frame = self._episode_frame
-        turn = frame.rotation().matrix()
-        shift = turn @ teacher.footing_shift
-
-        def placed(point):  # a point of the clip's world, where the teacher tracks it in the environment's
-            return frame @ point + shift
-
         plant, context, model = self.sim.plant, self._plant_context, [self.sim.model]
-        pose = plant.EvalBodyPoseInWorld(context, self._root)
-        heading = heading_rotation(pose.rotation().matrix())
-        reference_pose = teacher.plant.EvalBodyPoseInWorld(reference, plan.root_body)
-        yaw = heading.T @ heading_rotation(turn @ reference_pose.rotation().matrix())
-        com_reference, com_velocity_reference, _ = plan.com_reference(time_)
-        com = plant.CalcCenterOfMassPositionInWorld(context, model)
-        com_velocity = plant.CalcCenterOfMassTranslationalVelocityInWorld(context, model)
-        feet = np.zeros(6)
+        com, com_velocity, _ = plan.com_reference(time_)
+        feet = None
         if self._has_feet():
-            feet = np.concatenate(
-                [
-                    placed(teacher.plant.EvalBodyPoseInWorld(reference, plan.foot_body(f"{side}_foot")).translation())
-                    - pose.translation()
-                    for side in ("left", "right")
-                ]
-            )
-        return np.concatenate(
-            [
-                heading.T @ (placed(reference_pose.translation()) - pose.translation()),
-                [yaw[1, 0], yaw[0, 0]],
-                heading.T @ (placed(com_reference) - com),
-                heading.T @ (turn @ com_velocity_reference - com_velocity),
-                (feet.reshape(2, 3) @ heading).ravel(),  # rows: heading.T @ each
+            feet = [
+                clip_plant.EvalBodyPoseInWorld(reference, plan.foot_body(f"{side}_foot")).translation()
+                for side in ("left", "right")
             ]
+        return reference_features(
+            plant.EvalBodyPoseInWorld(context, self._root),
+            plant.CalcCenterOfMassPositionInWorld(context, model),
+            plant.CalcCenterOfMassTranslationalVelocityInWorld(context, model),
+            clip_plant.EvalBodyPoseInWorld(reference, plan.root_body),
+            com,
+            com_velocity,
+            feet,
+            self._episode_frame,
+            teacher.footing_shift,
         )
 
     def clip_phase(self) -> np.ndarray:
@@ -522,9 +494,7 @@ class DiagramEnv(gym.Env):
         return self._phase_at(self._episode_clip, self._clip_time())
 
     def _phase_at(self, clip_index: int, clip_time: float) -> np.ndarray:
-        share = clip_time / max(self.clips[clip_index].duration, 1e-9)
-        angle = 2.0 * np.pi * (share % 1.0) if self.loop else np.pi * min(share, 1.0)
-        return np.array([np.sin(angle), np.cos(angle)])
+        return clip_phase(clip_time, self.clips[clip_index].duration, self.loop)
 
     def pelvis_height(self) -> float:
         return self._fall.pelvis_height(self._plant_context)

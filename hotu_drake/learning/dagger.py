@@ -32,8 +32,9 @@ critic learns the reward's values from the first iteration, so the
 handover starts with one.
 
 The policy is the same `ActorCritic` the style learners train. A clone
-that observes the clip's phase (the preset's) cannot be deployed by a
-scenario yet: `!PolicyCheckpoint` gives no phase and refuses the file.
+that observes its clip's phase or reference is deployed by asking for
+its motion by name (`!PolicyCheckpoint {latents: walk}`): the scenario
+gives it those numbers without the teacher (`systems.motion_reference`).
 """
 
 from __future__ import annotations

@@ -24,7 +24,6 @@ from dataclasses import dataclass
 from time import perf_counter
 
 import numpy as np
-from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import Context, DiagramBuilder, DiscreteValues, LeafSystem
@@ -45,6 +44,7 @@ from hotu_drake.control.catch_step import (
     outside,
 )
 from hotu_drake.control.clip_plan import ClipPlan, pendulum_frequency
+from hotu_drake.control.footing import TOUCHING, Footing
 from hotu_drake.control.footsteps import beside_capture, heading_axes, predicted_capture, side_of
 from hotu_drake.control.whole_body_qp import (
     Sole,
@@ -98,38 +98,11 @@ STEP_LOOK_AHEAD = 0.15  # s: how far ahead a swing foot's step is placed for the
 # across it instead: the same rule, less half the sole's width, on every robot moved H1's turning walk from 10
 # to 9 of 10 starts up and nothing else.
 CAPTURE_BESIDE = 0.01
-TOUCHING = 0.01  # m: a sole with a corner this close to the floor is down
 NEXT_STEP = 1e-6  # s: a step this near one period after the last is the next control step
 ROLLED = 0.005  # rad: a sole turned this far about its length stands on its lower edge
 LEANING = 0.05  # m/s^2: the sideways CoM acceleration asked for which both flat soles of a rolling pair tip
 LANDING_DEPTH = 0.005  # m: a foot the clip has down that is not yet down is drawn this far below the floor
-# m: a foot the clip has lifted pushes off on its toes while, early in its swing, the clip's sole is pitched
-# over an edge (its other corners `TOE_PITCH` higher) whose corners (those within `TOE_BAND` of its lowest)
-# are within `TOE_DOWN` of the floor. The clips' contacts end as the heel rises (`_foot_contacts`), so a walk
-# switched its support from foot to foot within a frame and the trailing foot lifted flat: no push-off.
-# Over the first `TOE_SWING` of the swing (its share of the clip's frames up).
-TOE_DOWN, TOE_BAND, TOE_PITCH, TOE_SWING = 0.005, 0.005, 0.01, 0.5
-# m: a foot the clip has down stands on its toes (held on that edge, as pushing off) where the clip has its sole
-# pitched over an edge on the floor with its other corners this much higher: the back foot of a lunge, its
-# heel up and its ball down (leg_stretch). Held flat there, NAVIAI falls in three starts of four, on its toes
-# in none (the UDH fell in three of four held flat before its clip kept the pressure within one ankle's reach on
-# one foot, `balance.ANKLE_ALONE`; now it and Walker stand either way). At 2-4 cm a capture's rolling feet were
-# held on their toes too (the UDH's Qualisys walk 0/4, 1/4 before; 2/4 at 6 cm).
-PLANTED_TOE_PITCH = 0.06
-# A foot the clip lifts flat (H1's: its leg cannot reach the floor at the person's push-off) pushes off
-# all the same for `PUSH_OFF_TIME` (s) after the clip lifts it (a 30 fps clip's first frame up) while the
-# other foot is down, if it is going at least `PUSH_OFF_STEP` (m) to its next footstep: on its edge toward it
-# (the corners within `PUSH_OFF_EDGE` (m) of the furthest that way: its toes walking forward, its heel
-# walking backwards, its left edge stepping to the left).
-PUSH_OFF_TIME, PUSH_OFF_STEP, PUSH_OFF_EDGE = 0.05, 0.05, 0.02
 BODY_WEIGHT_HEIGHT = 1.0  # m: the CoM height `TrackingGains.body_weight` is for (H1's 1.01; BRUCE's 0.41)
-FOOTING_EASING = 0.6  # s: the time constant over which the tracked clip moves to where the feet stand
-# s: the same for a robot on line feet. A line cannot move its pressure across, so a stance foot that landed
-# off the clip's footprint must carry the plan with it within its own stance: BRUCE's stance lasts 0.3 s, and at
-# 0.6 its plan kept asking for pressure 1-2.5 cm outside the foot it stood on (the looped walk fell at a stop in
-# 4 of 10 seeds). At 0.1: 10 of 10; 0.05, 0.15: 10 of 10 too, eight motions from ten starts 72 and 71 of 80
-# against 73 (69 at 0.6).
-LINE_FOOTING_EASING = 0.1
 # On line feet (where only where a foot lands balances the robot) a swinging leg's joints (its hip, knee and
 # ankle) hold the clip's posture at this share of the posture's weight: the swing foot's task places them. At the
 # full weight the posture held BRUCE's swing foot down as it lifted (asked +10 m/s^2 up, the QP gave +1): it rose
@@ -208,14 +181,14 @@ class WholeBodyController(LeafSystem):
         plant.Finalize()
         self._context = plant.CreateDefaultContext()
         self._reference = plant.CreateDefaultContext()
-        self._nearby = plant.CreateDefaultContext()  # scratch: the reference at another time (`pushing_off`)
         self._reference_accelerations = np.zeros(plant.num_velocities())
         self._step = 0.5 / clip.fps
-        self._shift = np.zeros(3)  # where the planted feet stand against the clip's (`_footing`)
+        self._shift = np.zeros(3)  # where the planted feet stand against the clip's (`control.footing`)
         self._sideways_demand = np.zeros(2)  # the ZMP plan's horizontal CoM acceleration at the last step
         self._scaling = ActionScaling.for_embodiment(embodiment)
         self.plan = ClipPlan(clip, plant, self._model, embodiment, self._reference, loop)
         self._soles = feet_soles(plant, embodiment)
+        self.footing = Footing(plant, self.plan, self._soles, control_period)
         if actuated_joint_order(plant, self._model) != embodiment.joint_names:
             raise RuntimeError(f"{embodiment.name}: actuator order differs from the spec's joint order")
         self._q, self._v = actuated_state_indices(plant, self._model, embodiment.joint_names)
@@ -234,9 +207,7 @@ class WholeBodyController(LeafSystem):
         self._line_soles = {name: sole.is_line for name, sole in self._soles.items()}
         # Each corner of each sole: its side of the sole (across it, from its middle).
         self._across = {name: sole.corners[:, 1] - sole.corners[:, 1].mean() for name, sole in self._soles.items()}
-        on_lines = bool(self._soles) and all(self._line_soles.values())
-        self._footing_easing = LINE_FOOTING_EASING if on_lines else FOOTING_EASING
-        self._on_lines = on_lines
+        self._on_lines = bool(self._soles) and all(self._line_soles.values())
         # Each foot's leg: its side's hip, knee and ankle (the posture's rows eased while it stands where the clip
         # asks it past a torque limit, and on line feet as it swings).
         joints = embodiment.spec.joints
@@ -283,7 +254,7 @@ class WholeBodyController(LeafSystem):
         # moved its foot `CATCH_MOVED` or more: one whose foot the robot could not lift is no step).
         self._catch: CatchStep | None = None
         self.catches: list[tuple[float, str]] = []
-        self._caught_until = -np.inf  # the footing follows the feet faster until then (`_footing`)
+        self._caught_until = -np.inf  # the footing follows the feet faster until then (`act`)
         self._standing_width = self._feet_apart_standing()
         self.swing_goals: dict[str, np.ndarray] = {}  # where each swing foot was last sent (world, its origin)
         # The QP's model checked against what the robot did: at each control step that follows the last by one
@@ -355,7 +326,8 @@ class WholeBodyController(LeafSystem):
         pushing = self.pushing_off(time)
         planted = self.planted(time, pushing)
         planted, pushing = self._catching(time, planted, pushing)
-        self._footing(planted, time)
+        easing = CATCH_FOOTING_EASING if time < self._caught_until else None  # a caught robot's footing: faster
+        self._shift = self.footing.follow(self._shift, self._context, self._reference, planted, easing)
         tasks = self.tasks(time, planted)
         held, lifting = self.contacts(planted, pushing)
         solving = perf_counter()
@@ -434,13 +406,8 @@ class WholeBodyController(LeafSystem):
     def reference_travel(self, duration: float) -> float:
         """How far (m, horizontally) the clip's pelvis moves over `duration` s
         from the controller's start (a loop carrying its root motion on)."""
-        plant, scratch = self._plant, self._plant.CreateDefaultContext()
-        pelvis = plant.GetBodyByName(self.embodiment.key_bodies["pelvis"])
-        ends = []
-        for time in (self.start_time, self.start_time + duration):
-            self.plan.set_reference(scratch, time)
-            ends.append(plant.EvalBodyPoseInWorld(scratch, pelvis).translation())
-        return float(np.linalg.norm((ends[1] - ends[0])[:2]))
+        pelvis = self._plant.GetBodyByName(self.embodiment.key_bodies["pelvis"])
+        return self.plan.travel(pelvis, self.start_time, duration)
 
     @property
     def plant(self) -> MultibodyPlant:
@@ -456,7 +423,7 @@ class WholeBodyController(LeafSystem):
     def footing_shift(self) -> np.ndarray:
         """Where the clip is tracked from against where it is (m, horizontal,
         in the clip's world): the planted feet's offset from the clip's, eased
-        (`_footing`)."""
+        (`control.footing`)."""
         return self._shift.copy()
 
     def reset(self) -> None:
@@ -477,83 +444,16 @@ class WholeBodyController(LeafSystem):
     # --- the tasks -----------------------------------------------------------------
 
     def planted(self, time: float, pushing: dict[str, np.ndarray] | None = None) -> dict[str, bool]:
-        """The soles the controller stands on at `time` (the reference set to
-        it): those the clip has down that are down (a corner within
-        `TOUCHING` of the floor). A foot the clip has landed that is still in
-        the air stays a swing foot, drawn to its footstep on the floor; held
-        still as planted it would hover (the robots that fell at the end of
-        the walk stood on one leg, the other 3 cm up). A foot pushing off
-        (`pushing`, by default `pushing_off(time)`) is down if the corners it
-        pushes off on are."""
-        plant, context = self._plant, self._context
+        """The soles the controller stands on at `time` (the reference set
+        to it; `Footing.planted`), with the feet `pushing` off (by default
+        `pushing_off(time)`)."""
         pushing = self.pushing_off(time) if pushing is None else pushing
-        out = {}
-        for name, down in self.plan.planted(time).items():
-            sole = self._soles.get(name)
-            if sole is not None and (down or name in pushing):
-                corners = plant.EvalBodyPoseInWorld(context, sole.body).multiply(sole.corners.T)[2]
-                down = bool(corners[pushing.get(name, slice(None))].min() < TOUCHING)
-            out[name] = down
-        return out
+        return self.footing.planted(self._context, time, pushing)
 
     def pushing_off(self, time: float) -> dict[str, np.ndarray]:
-        """The feet pushing off at `time` (the reference set to it), each with
-        the corners it pushes off on ((K,) bools). A foot the clip has down
-        with its sole pitched over an edge on the floor (`PLANTED_TOE_PITCH`):
-        that edge, as the back foot of a lunge stands. A foot the clip has lifted,
-        in the first half of its swing (`TOE_SWING`), whose sole the clip
-        still has on the floor pitched over an edge: that edge (`TOE_DOWN`,
-        `TOE_PITCH`, `TOE_BAND`). Else, just lifted (`PUSH_OFF_TIME`), with
-        the other foot down and a step to take (`PUSH_OFF_STEP`): its edge
-        toward its next footstep (`PUSH_OFF_EDGE`; stepping diagonally, a
-        single corner: an edge snapped to the sole's length or width lost
-        H1's turning walk one start in eight). Held there, the trailing foot
-        pushes the body on as a person's toes do while the other lands:
-        without it H1 walked at 0.74-0.87 of the clip's pace, each landing
-        foot braking a body that nothing had pushed. A foot the clip lifts in
-        place (`ClipPlan.lifted_in_place`: a lunge's back heel rising over its
-        toes) stays on its lowest edge (or, just lifted, an edge it pushes off
-        on) through the whole lift: let go, NAVIAI stood on its front foot
-        alone with its body behind it and fell in three starts of four (see
-        `PLANTED_TOE_PITCH` for the heel held up)."""
-        plant, reference, out = self._plant, self._reference, {}
-        clip_planted = self.plan.planted(time)
-        for name, down in clip_planted.items():
-            sole = self._soles.get(name)
-            in_place = not down and self.plan.lifted_in_place(name, time)
-            if sole is None or (not down and not in_place and self.plan.swing_progress(name, time) >= TOE_SWING):
-                continue
-            pose = plant.EvalBodyPoseInWorld(reference, sole.body)
-            heights = pose.multiply(sole.corners.T)[2]
-            low = heights.min()
-            lowest_edge = heights < low + TOE_BAND
-            if low < TOE_DOWN and heights.max() - low > (PLANTED_TOE_PITCH if down else TOE_PITCH):
-                out[name] = lowest_edge
-                continue
-            if down:
-                continue
-            edge = self._push_off_edge(name, time, clip_planted, sole, pose)
-            if edge is not None or in_place:
-                out[name] = lowest_edge if edge is None else edge
-        return out
-
-    def _push_off_edge(
-        self, name: str, time: float, clip_planted: dict[str, bool], sole: Sole, pose: RigidTransform
-    ) -> np.ndarray | None:
-        """The edge ((K,) bools) of the sole of foot `name` (at `pose` in the
-        reference) toward its next footstep, if the clip lifted it within
-        `PUSH_OFF_TIME` s with the other foot down and it is going at least
-        `PUSH_OFF_STEP` m (`pushing_off`)."""
-        other_down = any(clip_planted.get(other) for other in self._soles if other != name)
-        if not other_down or self.plan.since_lifting(name, time) >= PUSH_OFF_TIME:
-            return None
-        self.plan.set_reference(self._nearby, time + self.plan.until_landing(name, time))
-        step = self._plant.EvalBodyPoseInWorld(self._nearby, sole.body).translation() - pose.translation()
-        way = (pose.rotation().inverse() @ np.append(step[:2], 0.0))[:2]  # in the sole's frame
-        if np.linalg.norm(way) < PUSH_OFF_STEP:
-            return None
-        along = sole.corners[:, :2] @ (way / np.linalg.norm(way))
-        return along > along.max() - PUSH_OFF_EDGE
+        """The feet pushing off at `time` (the reference set to it;
+        `Footing.pushing_off`), each with the corners it pushes off on."""
+        return self.footing.pushing_off(self._reference, time)
 
     def _catching(
         self, time: float, planted: dict[str, bool], pushing: dict[str, np.ndarray]
@@ -761,25 +661,6 @@ class WholeBodyController(LeafSystem):
         landing = footstep[:2] + self._shift[:2] + adjustment[:2]
         moved = beside_capture(landing, predicted, left, side_of(name), CAPTURE_BESIDE)
         return adjustment + np.append(moved - landing, 0.0)
-
-    def _footing(self, planted: dict[str, bool], time: float) -> np.ndarray:
-        """Where the planted feet stand against the clip's (m, horizontal; their
-        mean): the clip is tracked from where the robot's feet actually
-        landed, so a step placed off the clip's footprint to catch the CoM
-        carries the CoM's and the next step's targets along. Kept through a
-        flight phase."""
-        plant, context, reference = self._plant, self._context, self._reference
-        offsets = [
-            plant.EvalBodyPoseInWorld(context, sole.body).translation()
-            - plant.EvalBodyPoseInWorld(reference, sole.body).translation()
-            for name, sole in self._soles.items()
-            if planted.get(name)
-        ]
-        if offsets:  # eased toward the new footing: a stance handed to a foot that landed elsewhere is no jump
-            footing = np.append((sum(offsets) / len(offsets))[:2], 0.0)  # their mean (np.mean's, for one or two)
-            easing = CATCH_FOOTING_EASING if time < self._caught_until else self._footing_easing
-            self._shift += (footing - self._shift) * (1.0 - np.exp(-self.period / easing))
-        return self._shift
 
     def _body_rows(
         self, body, stiffness: float, position: bool, offset: np.ndarray | None = None

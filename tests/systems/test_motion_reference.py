@@ -1,0 +1,60 @@
+"""MotionReference: a clip's phase and reference against the robot, as the environments give them."""
+
+import gymnasium as gym
+import numpy as np
+
+import hotu_drake.envs  # noqa: F401
+from hotu_drake import embodiment
+from hotu_drake.retarget.references import reference_clip
+from hotu_drake.systems.motion_reference import PHASE_SIZE, REFERENCE_SIZE, MotionReference, clip_phase
+from tests.systems.ports import assert_port_contract
+
+RATE = 60.0
+
+
+def test_port_contract():
+    h1 = embodiment.load("h1", "none")
+    system = MotionReference(h1, reference_clip("walk", h1), 1.0 / RATE)
+    states = system.GetInputPort("state").size()
+    assert states == 2 * (7 + len(h1.joint_names)) - 1  # the free root's quaternion: 7 positions, 6 velocities
+    assert_port_contract(system, {"state": states}, {"phase": PHASE_SIZE, "reference": REFERENCE_SIZE})
+
+
+def test_clip_phase():
+    np.testing.assert_allclose(clip_phase(0.5, 2.0, loop=True), [1.0, 0.0], atol=1e-12)  # a quarter cycle
+    np.testing.assert_allclose(clip_phase(2.5, 2.0, loop=True), [1.0, 0.0], atol=1e-12)  # a loop repeats
+    np.testing.assert_allclose(clip_phase(1.0, 2.0, loop=False), [1.0, 0.0], atol=1e-12)  # half the clip
+    np.testing.assert_allclose(clip_phase(5.0, 2.0, loop=False), [0.0, -1.0], atol=1e-12)  # held at its end
+
+
+def test_it_follows_the_clip_as_the_teachers_environment_does():
+    """Stepped along an episode the teacher performs (H1's looped walk,
+    1.5 s at 60 Hz), the system fed the robot's states gives the phase and
+    reference the environment observed at each step, its footing shift
+    (the teacher's, in the environment) moving as the feet land: the
+    numbers a clone observed in training, without the teacher's QP."""
+    options = {"robot": "h1", "hands": "none", "motions": ["walk"], "control_rate": RATE, "loop": True}
+    env = gym.make(
+        "hotu_drake/Imitation-v0", teacher=True, phase_observation=True, reference_observation=True, **options
+    )
+    inner = env.unwrapped
+    observation, info = env.reset(seed=0, options={"init": "reference", "clip": 0, "time": 0.0})
+    plant, model, context = inner.sim.plant, inner.sim.model, inner._plant_context
+    system = MotionReference(inner.embodiment, inner.clips[0], 1.0 / RATE, loop=True)
+    own = system.CreateDefaultContext()
+    port = system.GetInputPort("state")
+    port.FixValue(own, plant.GetPositionsAndVelocities(context, model))
+    system.ExecuteInitializationEvents(own)
+    shifts = []
+    for step in range(90):
+        if step:
+            observation, _, terminated, _, info = env.step(info["teacher_action"])
+            assert not terminated
+            port.FixValue(own, plant.GetPositionsAndVelocities(context, model))
+        own.SetTime(context.get_time())  # the environment's own sum of periods, as its teacher is asked at
+        given = np.r_[system.GetOutputPort("phase").Eval(own), system.GetOutputPort("reference").Eval(own)]
+        np.testing.assert_allclose(given, observation[-PHASE_SIZE - REFERENCE_SIZE :], atol=1e-5, err_msg=f"{step}")
+        own.get_mutable_discrete_state().SetFrom(system.EvalUniquePeriodicDiscreteUpdate(own))  # this step's update
+        shifts.append(system.shift(own))
+    assert max(np.linalg.norm(shift) for shift in shifts) > 0.005  # the clip moved to where the feet stood
+    env.close()
