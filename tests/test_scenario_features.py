@@ -209,6 +209,15 @@ def test_a_scenario_that_varies_runs_the_member_its_seed_draws(tmp_path):
     heights = [run["drawn"]["initial.drop_height"] for run in runs]
     assert heights[0] == heights[1] != heights[2] and all(0.0 <= h <= 0.2 for h in heights)
     assert [run["seed"] for run in runs] == [1, 1, 2]
+    command = [sys.executable, "-m", "hotu_drake.simulate", str(path), "--seed", "1", "--seeds", "2", "--json"]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    both = json.loads(result.stdout)  # members 1 and 2, as run one by one, and their summary
+    assert [run["drawn"] for run in both["runs"]] == [runs[0]["drawn"], runs[2]["drawn"]]
+    fell = sum(run["fell"] for run in both["runs"])
+    assert both["seeds"] == [1, 2] and both["summary"]["runs"] == 2 and both["summary"]["falls"] == fell
+    travel = np.mean([run["root_travel_m"] for run in both["runs"]])
+    assert both["summary"]["mean_root_travel_m"] == pytest.approx(travel, abs=1e-4)
     box = load_scenario("box_udh")
     box.vary.task, box.seed = True, 5
     member, drawn = box.drawn()

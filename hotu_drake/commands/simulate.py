@@ -1,6 +1,7 @@
 """Run a scenario.
 
     python -m hotu_drake.simulate SCENARIO [--name NAME] [--duration S] [--seed N] [--html OUT.html] [--json]
+    python -m hotu_drake.simulate SCENARIO --seeds 20 [--seed FIRST] [--json]
 
 SCENARIO is the name of a shipped scenario (`stand_h1`, see `--list`) or
 a scenario file (one scenario, or a catalogue with `--name`).
@@ -14,19 +15,25 @@ last bits may change it, so regression tests pin the state itself and
 compare it with a tolerance). A scenario with a
 reference motion also gets `tracking_rms` (rad, joint positions against the
 reference, sampled every 50 ms); every run `root_travel_m` (the pelvis'
-horizontal displacement), and one under the whole-body controller
-(`!WholeBodyTracking`) `reference_travel_m` (its clip's, looping with its
-root motion, over the same time). A scenario that varies (`vary`: drop
-height, reference start, push speed, task instance; a policy's latents)
-runs the member its seed draws (`--seed N`), and the figures say which
-(`seed`, `drawn`): one scenario evaluated over many seeds.
+horizontal displacement), and one that follows a clip (under the
+whole-body controller, `!WholeBodyTracking`, or a clone asked for a
+motion, `!PolicyCheckpoint {latents: walk}`) `reference_travel_m` (its
+clip's, looping with its root motion, over the same time). A scenario
+that varies (`vary`: drop height, reference start, push speed, task
+instance; a policy's latents) runs the member its seed draws (`--seed
+N`), and the figures say which (`seed`, `drawn`). `--seeds N` runs N
+members (from `--seed`, default 0) and adds their summary: falls, the
+mean travels and their ratio (the robot's over the clip's): one
+scenario evaluated over many seeds.
 """
 
 import json
 import sys
 from pathlib import Path
 
-from hotu_drake.cli import ArgumentParser, positive_float, run_cli
+import numpy as np
+
+from hotu_drake.cli import ArgumentParser, positive_float, positive_int, run_cli
 from hotu_drake.diagrams import run_scenario
 from hotu_drake.io import check_output_path, write_text_atomic
 from hotu_drake.scenario import load_scenario, shipped_scenarios
@@ -43,6 +50,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--seed", type=int, help="the member of the scenario's family to run: what its `vary` draws (default: its seed)"
     )
+    parser.add_argument("--seeds", type=positive_int, help="run this many members, from --seed (default 0), and sum up")
     parser.add_argument("--html", help="write a Meshcat replay of the run")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
     args = parser.parse_args(argv)
@@ -54,6 +62,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("give a scenario (a shipped name or a file)")
     if args.html:
         check_output_path(args.html)
+    if args.seeds and args.html:
+        parser.error("--html replays one run: give --seed N, not --seeds")
     scenario = load_scenario(args.scenario, args.name)
     if args.duration is not None:  # the scenario's own bounds, on the duration asked for
         scenario.duration = args.duration
@@ -61,21 +71,61 @@ def main(argv: list[str] | None = None) -> int:
     if args.seed is not None:
         scenario.seed = args.seed
         scenario.validate("--seed")
+    name = args.name or Path(args.scenario).stem
+    if args.seeds:
+        return _over_seeds(scenario, name, args.seeds, args.duration, args.json)
     meshcat = None
     if args.html:
         from pydrake.geometry import StartMeshcat
 
         meshcat = StartMeshcat()
     figures = run_scenario(scenario, args.duration, meshcat)
-    figures["scenario"] = args.name or Path(args.scenario).stem
+    figures["scenario"] = name
     if args.html:
         write_text_atomic(args.html, meshcat.StaticHtml())
-    if args.json:
-        print(json.dumps(figures, indent=2))
-    else:
-        for key, value in figures.items():
-            print(f"{key:18s} {value}")
+    _print(figures, args.json)
     return 0
+
+
+def _over_seeds(scenario, name: str, seeds: int, duration: float | None, as_json: bool) -> int:
+    """Run `seeds` members of `scenario` from its seed; print each one's figures and their summary."""
+    first, runs = scenario.seed, []
+    for seed in range(first, first + seeds):
+        scenario.seed = seed
+        figures = run_scenario(scenario, duration) | {"scenario": name, "seed": seed}
+        runs.append(figures)
+        if not as_json:
+            print(" ".join(f"{key} {figures[key]}" for key in SUMMED if key in figures), flush=True)
+    summary = over_seeds(runs)
+    _print(
+        {"scenario": name, "seeds": [first, first + seeds - 1], "summary": summary}
+        | ({"runs": runs} if as_json else {}),
+        as_json,
+    )
+    return 0
+
+
+SUMMED = ("seed", "fell", "root_travel_m", "reference_travel_m")  # each run's line under --seeds
+
+
+def over_seeds(runs: list[dict]) -> dict:
+    """Several runs' figures summed up: how many fell, the mean travels
+    and, where the runs follow a clip, the robot's over the clip's."""
+    summary = {"runs": len(runs), "falls": sum(bool(run["fell"]) for run in runs)}
+    summary["mean_root_travel_m"] = round(float(np.mean([run["root_travel_m"] for run in runs])), 4)
+    if all("reference_travel_m" in run for run in runs):
+        reference = float(np.mean([run["reference_travel_m"] for run in runs]))
+        summary["mean_reference_travel_m"] = round(reference, 4)
+        summary["travel_ratio"] = round(summary["mean_root_travel_m"] / reference, 4) if reference > 0 else None
+    return summary
+
+
+def _print(figures: dict, as_json: bool) -> None:
+    if as_json:
+        print(json.dumps(figures, indent=2))
+        return
+    for key, value in figures.items():
+        print(f"{key:18s} {value}")
 
 
 if __name__ == "__main__":
