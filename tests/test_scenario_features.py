@@ -230,15 +230,15 @@ def test_a_scenario_that_varies_runs_the_member_its_seed_draws(tmp_path):
 
 def _clip_following_checkpoint(tmp_path, network, inner) -> str:
     """A checkpoint of `network` recorded as a DAgger clone of `inner`'s
-    walk that observes its phase and reference, trained at its rate."""
-    environment = {"phase_observation": True, "reference_observation": True, "loop": True}
+    walk that observes its phase, reference and pose, trained at its rate."""
+    environment = {"phase_observation": True, "reference_observation": True, "pose_observation": True, "loop": True}
     meta = {"algo": "dagger", "motions": ["walk"], "config": {"environment": environment}}
     path = save_checkpoint(tmp_path / "clone.pt", network, "h1", "none", meta, control_rate=1.0 / inner.control_period)
     return str(path)
 
 
 def test_a_clip_following_clone_replays_its_environments_episode(tmp_path):
-    """A clone that observes its clip's phase and reference is asked for
+    """A clone that observes its clip's phase, reference and pose is asked for
     its motion by name (`latents: walk`): the diagram's policy observes
     what the environment gave it (`systems.motion_reference`), step by
     step from the same reference start, and the run reports the clip's
@@ -261,6 +261,7 @@ def test_a_clip_following_clone_replays_its_environments_episode(tmp_path):
         teacher=True,
         phase_observation=True,
         reference_observation=True,
+        pose_observation=True,
     )
     inner = env.unwrapped
     torch.manual_seed(3)
@@ -297,7 +298,8 @@ def test_a_clip_following_clone_needs_one_of_its_motions_at_its_rate(tmp_path):
     from hotu_drake.learning.networks import PolicyConfig, PolicyNetwork
 
     options = {"robot": "h1", "hands": "none", "motions": ["walk"], "control_rate": 60.0, "teacher": True}
-    env = gym.make("hotu_drake/Imitation-v0", phase_observation=True, reference_observation=True, **options)
+    extras = {"phase_observation": True, "reference_observation": True, "pose_observation": True}
+    env = gym.make("hotu_drake/Imitation-v0", **extras, **options)
     size, actions = env.observation_space.shape[0], env.action_space.shape[0]
     path = _clip_following_checkpoint(tmp_path, PolicyNetwork(PolicyConfig(size, actions, {})), env.unwrapped)
     env.close()

@@ -34,9 +34,17 @@ from hotu_drake.errors import InputError, check_bool, check_choice, check_number
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.playback import ClipPlayback
 from hotu_drake.objects import SceneObject, place_objects
-from hotu_drake.plant import FallCheck, alignment, move_free_body, set_robot_state
+from hotu_drake.plant import FallCheck, actuated_state_indices, alignment, move_free_body, set_robot_state
 from hotu_drake.scenario import LIMITS, ActionInput, InitialCondition, Scenario, load_scenario
-from hotu_drake.systems.motion_reference import PHASE_SIZE, REFERENCE_SIZE, clip_phase, reference_features
+from hotu_drake.systems.motion_reference import (
+    EXTRAS,
+    PHASE_SIZE,
+    REFERENCE_SIZE,
+    clip_phase,
+    extra_size,
+    pose_features,
+    reference_features,
+)
 
 log = logging.getLogger("hotu_drake.envs")
 MAX_AMP_HISTORY = 300  # frames (10 s at 30 Hz) of AMP observation kept per step
@@ -117,6 +125,7 @@ class DiagramEnv(gym.Env):
         loop: bool = False,
         reference_start_time: float | None = None,
         reference_observation: bool = False,
+        pose_observation: bool = False,
     ):
         """`scenario` as `environment_scenario` makes it; `embodiment`
         overrides its robot (e.g. a resized UDH). With `teacher`, every
@@ -130,7 +139,9 @@ class DiagramEnv(gym.Env):
         default start is (evaluation episodes then differ). With
         `reference_observation` (and `teacher`), the observation ends with
         where the teacher's reference is against the robot
-        (`reference_features`). Bad keywords raise `InputError`."""
+        (`reference_features`); with `pose_observation`, with the clip's
+        joints against the robot's (`reference_pose`). Bad keywords raise
+        `InputError`."""
         where = type(self).__name__
         amp_history = check_number(amp_history, "amp_history", where, low=1, high=MAX_AMP_HISTORY, integer=True)
         reference_init_probability = check_number(
@@ -142,6 +153,7 @@ class DiagramEnv(gym.Env):
         self.phase_observation = check_bool(phase_observation, "phase_observation", where)
         self.loop = check_bool(loop, "loop", where)
         self.reference_observation = check_bool(reference_observation, "reference_observation", where)
+        self.pose_observation = check_bool(pose_observation, "pose_observation", where)
         if self.reference_observation and not self.teacher:
             raise InputError("the reference observation is the teacher's reference: give teacher=True", where)
         if reference_start_time is not None:
@@ -184,6 +196,8 @@ class DiagramEnv(gym.Env):
         self._fall = FallCheck(sim.plant, sim.model, emb, height_fraction=termination_height)
         self.termination_height = self._fall.min_pelvis_height
         self._playbacks = [ClipPlayback(c, loop=False) for c in self.clips]
+        self._joint_playbacks = [ClipPlayback(c, loop=self.loop) for c in self.clips]  # `reference_pose`
+        self._joints = actuated_state_indices(sim.plant, sim.model, emb.joint_names)
         n = len(emb.joint_names)
         self.action_space = gym.spaces.Box(-1.0, 1.0, (n,), np.float32)
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (self._observation_size(),), np.float32)
@@ -204,13 +218,16 @@ class DiagramEnv(gym.Env):
 
     # -- what subclasses extend ------------------------------------------------
 
+    def _extras(self) -> tuple[str, ...]:
+        """What the observation has after the robot's (`systems.motion_reference.EXTRAS`, in order)."""
+        return tuple(extra for extra in EXTRAS if getattr(self, f"{extra}_observation"))
+
     def _observation_size(self) -> int:
-        phase = PHASE_SIZE if self.phase_observation else 0
-        return self._observer.observation_size + phase + (REFERENCE_SIZE if self.reference_observation else 0)
+        return self._observer.observation_size + sum(extra_size(extra, self.embodiment) for extra in self._extras())
 
     def _extra_observation(self) -> np.ndarray:
-        phase = self.clip_phase() if self.phase_observation else np.zeros(0)
-        return np.concatenate([phase, self.reference_features() if self.reference_observation else np.zeros(0)])
+        made = {"phase": self.clip_phase, "reference": self.reference_features, "pose": self.reference_pose}
+        return np.concatenate([np.zeros(0), *(made[extra]() for extra in self._extras())])
 
     def _place_task(self) -> None:
         """Put task objects at their episode's start (subclasses)."""
@@ -353,7 +370,10 @@ class DiagramEnv(gym.Env):
             extra[:PHASE_SIZE] = self._phase_at(clip_index, time_)
         if self.reference_observation:  # on the reference: no offset, the clip's own feet
             feet = robot[self._observer.observation_size - 6 :] if self._has_feet() else np.zeros(6)
-            extra[-REFERENCE_SIZE:] = np.r_[np.zeros(3), 0.0, 1.0, np.zeros(6), feet]
+            at = PHASE_SIZE if self.phase_observation else 0
+            extra[at : at + REFERENCE_SIZE] = np.r_[np.zeros(3), 0.0, 1.0, np.zeros(6), feet]
+        if self.pose_observation:  # on the reference: its joints are the robot's
+            extra[-extra_size("pose", self.embodiment) :] = 0.0
         return np.concatenate([robot, extra]).astype(np.float32)
 
     def amp_layout(self) -> dict[str, list[str]]:
@@ -483,6 +503,16 @@ class DiagramEnv(gym.Env):
             self._episode_frame,
             teacher.footing_shift,
         )
+
+    def reference_pose(self) -> np.ndarray:
+        """The episode's clip's joint positions and velocities at its clip
+        time now less the robot's (`systems.motion_reference.pose_features`;
+        zeros after a default start)."""
+        if self._episode_clip is None:
+            return np.zeros(extra_size("pose", self.embodiment))
+        state = self.sim.plant.GetPositionsAndVelocities(self._plant_context, self.sim.model)
+        reference = self._joint_playbacks[self._episode_clip].joints_at(self._clip_time())
+        return pose_features(reference, state[self._joints[0]], state[self._joints[1]])
 
     def clip_phase(self) -> np.ndarray:
         """Where the episode is in its clip now, as the sine and cosine of an

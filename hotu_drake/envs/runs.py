@@ -69,6 +69,7 @@ def imitation_run(settings: dict, config) -> RunEnvironments:
             "loop": env.loop,
             "tracking_reward": env.tracking_reward,
             "reference_observation": env.reference_observation,
+            "pose_observation": env.pose_observation,
             "max_episode_steps": round(EPISODE_SECONDS * env.control_rate),
         }
         if evaluation and env.teacher:  # each clip from its start

@@ -193,6 +193,7 @@ class EnvironmentConfig:
     loop: bool = False  # the clips repeat (a walk goes on for the whole episode)
     tracking_reward: bool = False  # the environment's reward: DeepMimic's tracking of the clip (`envs.tracking`)
     reference_observation: bool = False  # the observation ends with the teacher's reference against the robot
+    pose_observation: bool = False  # ... and with the clip's joint positions and velocities less the robot's
     termination_height: float = 0.5
     amp_history: int = 10
     # End an episode after `style_patience` steps under this combined style reward; 0: off (the

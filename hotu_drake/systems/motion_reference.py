@@ -2,10 +2,11 @@
 
 A controller cloned from the whole-body controller (`learning.dagger`)
 may observe, besides the robot, where it is in its clip (`phase`: the
-sine and cosine of an angle, `clip_phase`) and where the clip's
-reference is against it (`reference`: `reference_features`), as the
-environments gave them in training (`phase_observation`,
-`reference_observation`). This system gives the same numbers in any
+sine and cosine of an angle, `clip_phase`), where the clip's reference
+is against it (`reference`: `reference_features`) and the clip's joints
+against its own (`pose`: `pose_features`), as the environments gave
+them in training (`phase_observation`, `reference_observation`,
+`pose_observation`). This system gives the same numbers in any
 diagram, without the controller's QP: the clip is placed where the
 robot starts (its start over the robot's root, facing the robot's
 heading) and tracked from where the robot's feet land, as the
@@ -26,7 +27,7 @@ from hotu_drake.control.whole_body_qp import feet_soles
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.playback import ClipPlayback
-from hotu_drake.plant import alignment, move_free_body
+from hotu_drake.plant import actuated_state_indices, alignment, move_free_body
 from hotu_drake.rotations import heading_rotation
 
 PHASE_SIZE = 2  # `clip_phase`: the sine and cosine of where the robot is in its clip
@@ -34,6 +35,20 @@ PHASE_SIZE = 2  # `clip_phase`: the sine and cosine of where the robot is in its
 # (2 x 3), against the robot's, in its heading frame
 REFERENCE_SIZE = 17
 SIDES = ("left", "right")
+EXTRAS = ("phase", "reference", "pose")  # what a clip-following policy may observe after the robot, in order
+
+
+def extra_size(extra: str, embodiment: Embodiment) -> int:
+    """How many numbers one of `EXTRAS` is on `embodiment`."""
+    return {"phase": PHASE_SIZE, "reference": REFERENCE_SIZE}.get(extra, 2 * len(embodiment.joint_names))
+
+
+def pose_features(reference: tuple[np.ndarray, np.ndarray], q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The clip's joint positions and velocities (`reference`, joint order)
+    less the robot's `q` and `v`: 2 n numbers, where the clip asks each
+    joint to be (the largest part of what a tracking controller does)."""
+    positions, velocities = reference
+    return np.r_[positions - q, velocities - v]
 
 
 def clip_phase(time: float, duration: float, loop: bool) -> np.ndarray:
@@ -101,6 +116,7 @@ class MotionReference(LeafSystem):
         output_ports:
         - phase
         - reference
+        - pose
 
     `state` is the robot model's [q; v]. Discrete state: where the clip
     is placed in the world (x, y, yaw; set from the robot's root at
@@ -132,6 +148,8 @@ class MotionReference(LeafSystem):
         self._models = [model]
         self._has_feet = all(f"{side}_foot" in embodiment.key_bodies for side in SIDES)
         self._start = alignment(ClipPlayback(clip, loop=False), start_time)  # the clip's start at the origin
+        self._playback = ClipPlayback(clip, loop)  # its joints (`pose`)
+        self._joints = actuated_state_indices(plant, model, embodiment.joint_names)
         self._state = self.DeclareVectorInputPort("state", plant.num_multibody_states())
         self._placement = self.DeclareDiscreteState(3)  # x, y, yaw
         self._shift = self.DeclareDiscreteState(3)
@@ -139,6 +157,7 @@ class MotionReference(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(control_period, 0.0, self._Follow)
         self.DeclareVectorOutputPort("phase", PHASE_SIZE, self._CalcPhase)
         self.DeclareVectorOutputPort("reference", REFERENCE_SIZE, self._CalcReference)
+        self.DeclareVectorOutputPort("pose", extra_size("pose", embodiment), self._CalcPose)
 
     def frame(self, context: Context) -> RigidTransform:
         """Where the clip's world is in the world (the clip's start over the robot's)."""
@@ -184,6 +203,11 @@ class MotionReference(LeafSystem):
 
     def _CalcPhase(self, context: Context, output: BasicVector) -> None:
         output.SetFromVector(clip_phase(self.clip_time(context), self.clip.duration, self.loop))
+
+    def _CalcPose(self, context: Context, output: BasicVector) -> None:
+        state = self._state.Eval(context)
+        q, v = state[self._joints[0]], state[self._joints[1]]
+        output.SetFromVector(pose_features(self._playback.joints_at(self.clip_time(context)), q, v))
 
     def _CalcReference(self, context: Context, output: BasicVector) -> None:
         self._set_robot(context)

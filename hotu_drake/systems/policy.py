@@ -19,12 +19,11 @@ from hotu_drake.embodiment import Embodiment
 from hotu_drake.embodiment.actions import standing_action
 from hotu_drake.errors import InputError
 from hotu_drake.learning import CheckpointError, PolicyConfig, PolicyNetwork, load_checkpoint
-from hotu_drake.systems.motion_reference import PHASE_SIZE, REFERENCE_SIZE
+from hotu_drake.systems.motion_reference import EXTRAS, extra_size
 from hotu_drake.systems.observation import observation_size
 
 CONTROL_RATE = 30.0  # Hz
 LATENT_SIZE = 16  # per functional part
-EXTRA_SIZES = {"phase": PHASE_SIZE, "reference": REFERENCE_SIZE}  # `observation_extras`, in observation order
 
 
 def policy_for(embodiment: Embodiment, latent_size: int = LATENT_SIZE, seed: int = 0) -> PolicyNetwork:
@@ -53,7 +52,7 @@ def load_policy(path: str | Path, embodiment: Embodiment, goal_size: int = 0) ->
     if network.config.action_size != len(embodiment.joint_names):
         actions, joints = network.config.action_size, len(embodiment.joint_names)
         raise InputError(f"{path}: the policy has {actions} actions, {embodiment.name} has {joints} joints")
-    expected = observation_size(embodiment) + sum(EXTRA_SIZES[extra] for extra in observation_extras(meta))
+    expected = observation_size(embodiment) + sum(extra_size(extra, embodiment) for extra in observation_extras(meta))
     if network.config.observation_size not in {expected, expected + goal_size}:
         size = network.config.observation_size
         raise InputError(f"{path}: the policy observes {size} numbers, {embodiment.name}'s observation has {expected}")
@@ -62,10 +61,10 @@ def load_policy(path: str | Path, embodiment: Embodiment, goal_size: int = 0) ->
 
 def observation_extras(meta: dict) -> tuple[str, ...]:
     """What a checkpoint's policy observes after the robot's observation, in
-    order: `phase`, `reference` (a clone that follows a clip, as its
-    environments gave them: `systems.motion_reference`); none for most."""
+    order: `phase`, `reference`, `pose` (a clone that follows a clip, as
+    its environments gave them: `systems.motion_reference`); none for most."""
     environment = meta.get("meta", {}).get("config", {}).get("environment", {})
-    return tuple(extra for extra in EXTRA_SIZES if environment.get(f"{extra}_observation"))
+    return tuple(extra for extra in EXTRAS if environment.get(f"{extra}_observation"))
 
 
 def check_embodiment(path: str | Path, data: dict, embodiment: Embodiment, what: str) -> None:

@@ -17,7 +17,8 @@ def test_port_contract():
     system = MotionReference(h1, reference_clip("walk", h1), 1.0 / RATE)
     states = system.GetInputPort("state").size()
     assert states == 2 * (7 + len(h1.joint_names)) - 1  # the free root's quaternion: 7 positions, 6 velocities
-    assert_port_contract(system, {"state": states}, {"phase": PHASE_SIZE, "reference": REFERENCE_SIZE})
+    pose = 2 * len(h1.joint_names)
+    assert_port_contract(system, {"state": states}, {"phase": PHASE_SIZE, "reference": REFERENCE_SIZE, "pose": pose})
 
 
 def test_clip_phase():
@@ -29,15 +30,21 @@ def test_clip_phase():
 
 def test_it_follows_the_clip_as_the_teachers_environment_does():
     """Stepped along an episode the teacher performs (H1's looped walk,
-    1.5 s at 60 Hz), the system fed the robot's states gives the phase and
-    reference the environment observed at each step, its footing shift
-    (the teacher's, in the environment) moving as the feet land: the
+    1.5 s at 60 Hz), the system fed the robot's states gives the phase,
+    reference and pose the environment observed at each step, its footing
+    shift (the teacher's, in the environment) moving as the feet land: the
     numbers a clone observed in training, without the teacher's QP."""
     options = {"robot": "h1", "hands": "none", "motions": ["walk"], "control_rate": RATE, "loop": True}
     env = gym.make(
-        "hotu_drake/Imitation-v0", teacher=True, phase_observation=True, reference_observation=True, **options
+        "hotu_drake/Imitation-v0",
+        teacher=True,
+        phase_observation=True,
+        reference_observation=True,
+        pose_observation=True,
+        **options,
     )
     inner = env.unwrapped
+    pose = 2 * len(inner.embodiment.joint_names)
     observation, info = env.reset(seed=0, options={"init": "reference", "clip": 0, "time": 0.0})
     plant, model, context = inner.sim.plant, inner.sim.model, inner._plant_context
     system = MotionReference(inner.embodiment, inner.clips[0], 1.0 / RATE, loop=True)
@@ -52,9 +59,10 @@ def test_it_follows_the_clip_as_the_teachers_environment_does():
             assert not terminated
             port.FixValue(own, plant.GetPositionsAndVelocities(context, model))
         own.SetTime(context.get_time())  # the environment's own sum of periods, as its teacher is asked at
-        given = np.r_[system.GetOutputPort("phase").Eval(own), system.GetOutputPort("reference").Eval(own)]
-        np.testing.assert_allclose(given, observation[-PHASE_SIZE - REFERENCE_SIZE :], atol=1e-5, err_msg=f"{step}")
+        given = np.concatenate([system.GetOutputPort(extra).Eval(own) for extra in ("phase", "reference", "pose")])
+        np.testing.assert_allclose(given, observation[-len(given) :], atol=1e-5, err_msg=f"{step}")
         own.get_mutable_discrete_state().SetFrom(system.EvalUniquePeriodicDiscreteUpdate(own))  # this step's update
         shifts.append(system.shift(own))
     assert max(np.linalg.norm(shift) for shift in shifts) > 0.005  # the clip moved to where the feet stood
+    assert np.abs(given[-pose:]).max() > 0.01  # the teacher does not hold every joint on the clip's
     env.close()
