@@ -188,3 +188,27 @@ def test_a_dagger_run_learns_from_the_teacher_and_reports_it_beside_the_teacher(
     assert {"policy_fall_rate", "teacher_travel_ratio", "standing_travel_ratio"} <= set(headline)
     picture = tmp_path / "trace.png"  # a clone has no latents; its trace is drawn all the same
     assert main(["trace", str(out), "--out", str(picture), "--parts", "hip,knee"]) == 0 and picture.stat().st_size > 0
+
+
+def test_a_clone_of_several_motions_is_reported_motion_by_motion(tmp_path, capsys):
+    """A DAgger run over two motions (H1's walk and wave, observing the
+    clips' joints): its report evaluates each motion on environments of
+    that motion alone, the policy beside the teacher and the robot
+    standing, and the headline names each motion's figures."""
+    config = tmp_path / "tiny.yaml"
+    config.write_text(
+        "environment: {loop: true, pose_observation: true}\nppo: {horizon: 60}\n"
+        "networks: {policy_hidden: [32, 32], critic_hidden: [8]}\nteacher: {updates: 5, batch_size: 32}\n"
+        "torch_threads: 1\n"
+    )
+    out = tmp_path / "run"
+    argv = ["pretrain", "--robot", "h1", "--motions", "walk,wave", "--algo", "dagger", "--workers", "1"]
+    assert main([*argv, "--steps", "60", "--out", str(out), "--config", str(config), "--eval-episodes", "1"]) == 0
+    evaluation = json.loads((out / "report.json").read_text())["evaluation"]
+    assert set(evaluation["by_motion"]) == {"walk", "wave"}
+    for motion, figures in evaluation["by_motion"].items():
+        assert figures["teacher"]["fall_rate"] == 0.0 and figures["policy"]["episodes"] == 1, motion
+    walk, wave = evaluation["by_motion"]["walk"], evaluation["by_motion"]["wave"]
+    assert walk["teacher"]["reference_travel_m"] > 3.0 > wave["teacher"]["reference_travel_m"]  # each its own clip
+    headline = json.loads(capsys.readouterr().err.strip().splitlines()[-1])
+    assert {"walk_policy_fall_rate", "wave_teacher_mean_episode_seconds"} <= set(headline)

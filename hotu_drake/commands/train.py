@@ -224,7 +224,7 @@ def evaluate_run(folder: RunFolder | str | Path, episodes: int, seed: int, worke
     envs, agent = restored.start(min(workers, episodes), seed)
     try:
         if isinstance(agent, DAggerAgent):
-            report = clone_report(agent, envs, restored.run.standing_action, episodes, seed)
+            report = _clone_evaluation(restored, agent, envs, min(workers, episodes), episodes, seed)
         else:
             report = behavior_report(agent, envs, restored.run.standing_action, episodes, seed)
     finally:
@@ -232,6 +232,22 @@ def evaluate_run(folder: RunFolder | str | Path, episodes: int, seed: int, worke
     report = {**folder.settings(), **run_record(agent), **report}
     folder.write_report(report)
     return report
+
+
+def _clone_evaluation(restored: RestoredRun, agent: DAggerAgent, envs, workers: int, episodes: int, seed: int) -> dict:
+    """A clone's `clone_report`: on its one motion, or motion by motion
+    (`evaluation.by_motion`, each on environments of that motion alone)."""
+    motions, standing = restored.settings["motions"], restored.run.standing_action
+    if len(motions) == 1:
+        return clone_report(agent, envs, standing, episodes, seed)
+    by_motion = {}
+    for motion in motions:
+        motion_envs = restored.run.vector_env(workers, evaluation=True, motions=[motion])
+        try:
+            by_motion[motion] = clone_report(agent, motion_envs, standing, episodes, seed)["evaluation"]
+        finally:
+            motion_envs.close()
+    return {"evaluation": {"by_motion": by_motion, "episodes": episodes, "seed": seed}}
 
 
 def plot_command(args) -> int:

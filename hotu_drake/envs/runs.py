@@ -44,10 +44,16 @@ class RunEnvironments:
     demonstrations: Demonstrations | None = None  # the clips as arrays (primitives, one-level skills)
     interaction: np.ndarray | None = None  # D_I's demonstration transitions (N, 2, d_I), two-level skills
 
-    def vector_env(self, workers: int, ray: str | None = None, evaluation: bool = False) -> gym.vector.VectorEnv:
-        """`workers` environments in worker processes (or Ray actors on the cluster `ray`)."""
-        spec = EnvSpec(self.env_id, self.eval_options if evaluation else self.options)
-        return make_vector_env(spec, workers, backend="ray" if ray else "local", address=ray)
+    def vector_env(
+        self, workers: int, ray: str | None = None, evaluation: bool = False, motions: list[str] | None = None
+    ) -> gym.vector.VectorEnv:
+        """`workers` environments in worker processes (or Ray actors on the
+        cluster `ray`); with `motions`, on those of the run's motions alone
+        (a behavior run's evaluation, motion by motion)."""
+        options = dict(self.eval_options if evaluation else self.options)
+        if motions is not None:
+            options["motions"] = list(motions)
+        return make_vector_env(EnvSpec(self.env_id, options), workers, backend="ray" if ray else "local", address=ray)
 
 
 def imitation_run(settings: dict, config) -> RunEnvironments:

@@ -275,10 +275,18 @@ def behavior_report(agent, envs, standing: np.ndarray, episodes: int, seed: int)
 
 
 def behavior_summary(report: dict) -> dict:
-    """A behavior report's headline figures, next to standing's (and the teacher's, for a clone)."""
+    """A behavior report's headline figures, next to standing's (and the
+    teacher's, for a clone; a clone of several motions, each motion's)."""
+    keys = ("fall_rate", "mean_episode_seconds", "travel_ratio")
+    if "by_motion" in report["evaluation"]:
+        return {
+            f"{motion}_{who}_{k}": evaluation[who][k]
+            for motion, evaluation in report["evaluation"]["by_motion"].items()
+            for who in ("policy", "teacher")
+            for k in keys[:2]
+        }
     policy, standing = report["evaluation"]["policy"], report["evaluation"]["standing"]
     if "teacher" in report["evaluation"]:
-        keys = ("fall_rate", "mean_episode_seconds", "travel_ratio")
         return {f"{who}_{k}": report["evaluation"][who][k] for who in ("policy", "teacher", "standing") for k in keys}
     return {
         "fall_rate": policy["fall_rate"],
