@@ -368,13 +368,24 @@ class DiagramEnv(gym.Env):
         extra = self._extra_observation()
         if self.phase_observation:  # the clip's phase at that time, not the episode's
             extra[:PHASE_SIZE] = self._phase_at(clip_index, time_)
-        if self.reference_observation:  # on the reference: no offset, the clip's own feet
-            feet = robot[self._observer.observation_size - 6 :] if self._has_feet() else np.zeros(6)
+        if self.reference_observation:  # on the reference: nothing off but where its own feet are
             at = PHASE_SIZE if self.phase_observation else 0
-            extra[at : at + REFERENCE_SIZE] = np.r_[np.zeros(3), 0.0, 1.0, np.zeros(6), feet]
+            extra[at : at + REFERENCE_SIZE] = self._features_on_reference()
         if self.pose_observation:  # on the reference: its joints are the robot's
             extra[-extra_size("pose", self.embodiment) :] = 0.0
         return np.concatenate([robot, extra]).astype(np.float32)
+
+    def _features_on_reference(self) -> np.ndarray:
+        """`reference_features` of the state in the scratch context against itself."""
+        plant, scratch, model = self.sim.plant, self._scratch_plant, [self.sim.model]
+        root = plant.EvalBodyPoseInWorld(scratch, self._root)
+        com = plant.CalcCenterOfMassPositionInWorld(scratch, model)
+        velocity = plant.CalcCenterOfMassTranslationalVelocityInWorld(scratch, model)
+        feet = None
+        if self._has_feet():
+            bodies = [plant.GetBodyByName(self.embodiment.key_bodies[f"{s}_foot"], model[0]) for s in ("left", "right")]
+            feet = [plant.EvalBodyPoseInWorld(scratch, body).translation() for body in bodies]
+        return reference_features(root, com, velocity, root, com, velocity, feet, RigidTransform(), np.zeros(3))
 
     def amp_layout(self) -> dict[str, list[str]]:
         """The column labels of each key of `info["amp"]` (`learning.parts.AmpLayout`)."""
