@@ -40,6 +40,7 @@ import hashlib
 import time
 from dataclasses import dataclass, field
 from functools import singledispatch
+from pathlib import Path
 
 import numpy as np
 from pydrake.geometry import Meshcat, SceneGraph
@@ -358,11 +359,12 @@ def run_scenario(scenario: Scenario, duration: float | None = None, meshcat=None
     effort limit), `checksum` (`state_checksum` of the final state) and,
     tracking a reference, `tracking_rms` (rad, joint positions against the
     reference, sampled every 50 ms), `root_travel_m` (the pelvis'
-    horizontal displacement over the run) and, under the whole-body
-    controller, `reference_travel_m` (its clip's over the same time,
-    looping with its root motion) and `catch_steps` (the steps it took of
-    its own to catch the robot: time, foot); with `state`, the final
-    `positions` and `velocities`."""
+    horizontal displacement over the run) and, following a clip (the
+    whole-body controller, or a clone asked for a motion),
+    `reference_travel_m` (its clip's over the same time, looping with its
+    root motion), under the whole-body controller `catch_steps` (the steps
+    it took of its own to catch the robot: time, foot); with `state`, the
+    final `positions` and `velocities`."""
     sim = build_simulation(scenario, meshcat=meshcat)
     emb, plant, context = sim.embodiment, sim.plant, sim.plant_context()
     fall = sim.fall_check()
@@ -469,8 +471,8 @@ def _(driver: PolicyCheckpoint, parts: DiagramParts) -> OutputPort:
         columns += _followed_motion(driver, parts, path, meta, extras)
     elif driver.latents not in LATENT_CHOICES:
         raise InputError(
-            f"{path}: a motion by name is for a controller that follows a clip (observes its phase); "
-            f"give this one {' or '.join(LATENT_CHOICES)}",
+            f"{path}: a motion by name is for a controller that follows a clip (observes its phase, reference "
+            f"or pose); give this one {' or '.join(LATENT_CHOICES)}",
             parts.scenario.source or None,
             "driver.latents",
         )
@@ -495,12 +497,18 @@ def _(driver: PolicyCheckpoint, parts: DiagramParts) -> OutputPort:
 def _followed_motion(
     driver: PolicyCheckpoint, parts: DiagramParts, path, meta: dict, extras: tuple[str, ...]
 ) -> list[OutputPort]:
-    """The `extras` (`phase`, `reference`) of the motion a clip-following
-    controller is asked for (`driver.latents`, one of its checkpoint's
-    motions), from a `MotionReference` placed where the robot starts."""
+    """The `extras` (`phase`, `reference`, `pose`) of the motion a
+    clip-following controller is asked for (`driver.latents`, one of its
+    checkpoint's motions: a library name, or a `.npz` clip, relative to the
+    scenario file), from a `MotionReference` placed where the robot starts."""
     scenario, where = parts.scenario, parts.scenario.source or None
+
+    def named(motion: str) -> str:  # a clip by its absolute path, a library motion by its name
+        return str(Path(motion).resolve()) if motion.endswith(".npz") else motion
+
     motions = [str(motion) for motion in meta.get("meta", {}).get("motions", [])]
-    if driver.latents not in motions:
+    asked = named(str(scenario.resolve(driver.latents))) if driver.latents.endswith(".npz") else driver.latents
+    if asked not in [named(motion) for motion in motions]:
         raise InputError(
             f"{path}: the controller follows a clip: give latents one of its motions ({', '.join(motions)}), "
             f"not {driver.latents!r}",
@@ -510,7 +518,7 @@ def _followed_motion(
     rate = meta.get("control_rate")
     if rate and abs(float(rate) - scenario.control_rate) > 1e-9:
         raise InputError(f"{path}: trained at {rate:g} Hz; give the scenario that control_rate", where, "control_rate")
-    clip = reference_clip(driver.latents, parts.embodiment, scenario.base_dir or None)
+    clip = parts.clip  # the scenario's reference motion: the followed one (`Scenario.followed_motion`)
     loop = bool(meta["meta"]["config"]["environment"].get("loop", False))
     follower = AddMotionReference(
         parts.builder,

@@ -253,10 +253,19 @@ class Scenario:
         return self.plant_config.time_step
 
     @property
+    def followed_motion(self) -> str:
+        """The motion the driver tracks or follows ("" for none): a tracking
+        driver's, or the one a clip-following policy is asked for."""
+        if isinstance(self.driver, ReferenceTracking | WholeBodyTracking):
+            return self.driver.motion
+        if isinstance(self.driver, PolicyCheckpoint) and self.driver.latents not in LATENT_CHOICES:
+            return self.driver.latents
+        return ""
+
+    @property
     def reference_motion(self) -> str:
         """The motion this scenario tracks or starts from ("" for none)."""
-        tracked = self.driver.motion if isinstance(self.driver, ReferenceTracking | WholeBodyTracking) else ""
-        return self.initial.motion or tracked
+        return self.initial.motion or self.followed_motion
 
     def resolve(self, path: str) -> Path:
         """A path from the scenario file, relative to the file's folder."""
@@ -330,6 +339,14 @@ class Scenario:
                     source,
                     "driver.lead_in",
                 )
+        followed = self.followed_motion
+        if self.initial.motion and followed and self.initial.motion != followed:
+            raise InputError(
+                f"starts on {self.initial.motion!r} but its driver follows {followed!r}: give one motion "
+                "(or leave initial.motion out: a reference start is on the followed motion)",
+                source,
+                "initial.motion",
+            )
         if self.initial.reference_time >= 0 and not self.reference_motion:
             raise InputError(
                 "needs a reference motion (initial.motion or driver !ReferenceTracking)",

@@ -8,10 +8,10 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import hotu_drake.envs  # noqa: F401  (registers the ids)
-from hotu_drake.envs.base import REFERENCE_SIZE
 from hotu_drake.errors import InputError
 from hotu_drake.motion.library import MOTIONS
 from hotu_drake.retarget.references import reference_clips
+from hotu_drake.systems.motion_reference import REFERENCE_SIZE
 from hotu_drake.systems.observation import ROOT_FEATURES
 
 WALK = ["walk"]
@@ -405,16 +405,19 @@ def test_the_reference_observation_says_where_the_teachers_reference_is_against_
 def test_the_pose_observation_gives_the_clips_joints_against_the_robots():
     """`pose_observation` ends the observation with the episode's clip's
     joint positions and velocities less the robot's (no teacher needed):
-    none at a reference start (the robot on the clip), the walk's swing
-    after a second of the standing pose; a default start has no clip."""
+    none at a reference start (the robot on the clip), as behavior
+    cloning's observation of the clip's state says (with its phase); the
+    walk's swing after a second of the standing pose; a default start has
+    no clip."""
     options = {"robot": "h1", "hands": "none", "motions": WALK, "control_rate": 60.0, "loop": True}
-    env = gym.make("hotu_drake/Imitation-v0", pose_observation=True, **options)
+    env = gym.make("hotu_drake/Imitation-v0", pose_observation=True, phase_observation=True, **options)
     inner = env.unwrapped
     joints = len(inner.embodiment.joint_names)
-    assert env.observation_space.shape[0] == inner._observer.observation_size + 2 * joints
-    observation, _ = env.reset(seed=0, options={"init": "reference", "clip": 0, "time": 0.0})
+    assert env.observation_space.shape[0] == inner._observer.observation_size + 2 + 2 * joints
+    observation, _ = env.reset(seed=0, options={"init": "reference", "clip": 0, "time": 0.5})
     np.testing.assert_allclose(observation[-2 * joints :], 0.0, atol=1e-6)
-    np.testing.assert_array_equal(inner.clip_observation(0, 0.5)[-2 * joints :], 0.0)
+    np.testing.assert_allclose(inner.clip_observation(0, 0.5), observation, atol=1e-5)
+    observation, _ = env.reset(seed=0, options={"init": "reference", "clip": 0, "time": 0.0})
     for _ in range(60):
         observation, *_ = env.step(inner.standing_action())
     assert np.abs(observation[-2 * joints : -joints]).max() > 0.1  # the clip's legs swing; the robot's stand

@@ -276,7 +276,7 @@ def test_a_clip_following_clone_replays_its_environments_episode(tmp_path):
             action = network(torch.as_tensor(observation, dtype=torch.float32)[None], {})[0].numpy()
         observation, *_ = env.step(action)
         env_observations.append(observation)
-    initial = InitialCondition(drop_height=0.0, reference_time=0.0, motion="walk")
+    initial = InitialCondition(drop_height=0.0, reference_time=0.0)  # on the motion the clone follows
     driver = PolicyCheckpoint(path, latents="walk")
     scenario = dataclasses.replace(inner.sim.scenario, driver=driver, initial=initial, objects=[])
     sim = build_simulation(scenario)
@@ -312,6 +312,10 @@ def test_a_clip_following_clone_needs_one_of_its_motions_at_its_rate(tmp_path):
     scenario.driver.latents, scenario.control_rate = "walk", 30.0
     with pytest.raises(InputError, match="trained at 60 Hz"):
         build_simulation(scenario)
+    scenario.control_rate = 60.0
+    scenario.initial = InitialCondition(reference_time=0.0, motion="squat")
+    with pytest.raises(InputError, match="initial.motion: starts on 'squat' but its driver follows 'walk'"):
+        scenario.validate()
     with pytest.raises(InputError, match="moonwalk.*nor a library motion"):
         Scenario(embodiment="h1", driver=PolicyCheckpoint(path, latents="moonwalk")).validate()
     other = save_checkpoint(tmp_path / "plain.pt", policy_for(embodiment.load("h1", "none")), "h1", "none")

@@ -14,9 +14,9 @@ import pytest
 
 from hotu_drake.commands.train import main
 from hotu_drake.embodiment import load as load_embodiment
-from hotu_drake.envs.base import REFERENCE_SIZE
 from hotu_drake.learning.checkpoint import load_checkpoint, read_checkpoint
 from hotu_drake.scenario import InitialCondition, PolicyCheckpoint, Scenario
+from hotu_drake.systems.motion_reference import REFERENCE_SIZE
 from hotu_drake.systems.observation import observation_size
 
 TINY = """\

@@ -22,9 +22,13 @@ clip's, looping with its root motion, over the same time). A scenario
 that varies (`vary`: drop height, reference start, push speed, task
 instance; a policy's latents) runs the member its seed draws (`--seed
 N`), and the figures say which (`seed`, `drawn`). `--seeds N` runs N
-members (from `--seed`, default 0) and adds their summary: falls, the
-mean travels and their ratio (the robot's over the clip's): one
-scenario evaluated over many seeds.
+members, from `--seed` (default: the scenario's own seed), and sums them
+up: how many fell and which, the robot's travel (mean, least, most), and
+following a clip the clip's and `travel_ratio` (as a training report's:
+the mean of each run's ratio, runs whose clip moves under 5 cm left out;
+over the whole run, so a fallen robot's travel stops where it fell). A
+run the simulator fails on is listed with its error and the command
+exits 1: one scenario evaluated over many seeds.
 """
 
 import json
@@ -36,6 +40,7 @@ import numpy as np
 from hotu_drake.cli import ArgumentParser, positive_float, positive_int, run_cli
 from hotu_drake.diagrams import run_scenario
 from hotu_drake.io import check_output_path, write_text_atomic
+from hotu_drake.learning.evaluation import travel_ratio
 from hotu_drake.scenario import load_scenario, shipped_scenarios
 
 
@@ -88,35 +93,48 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _over_seeds(scenario, name: str, seeds: int, duration: float | None, as_json: bool) -> int:
-    """Run `seeds` members of `scenario` from its seed; print each one's figures and their summary."""
+    """Run `seeds` members of `scenario` from its seed; print each one's
+    figures and their summary; 1 if the simulator failed on any."""
     first, runs = scenario.seed, []
+    if not scenario.drawn()[1]:
+        print(f"warning: {name} varies nothing (no vary:): its {seeds} runs are one run repeated", file=sys.stderr)
     for seed in range(first, first + seeds):
         scenario.seed = seed
-        figures = run_scenario(scenario, duration) | {"scenario": name, "seed": seed}
+        scenario.validate("--seeds")
+        try:
+            figures = run_scenario(scenario, duration) | {"scenario": name, "seed": seed}
+        except RuntimeError as error:  # Drake's solver failures: this run, not the others
+            figures = {"scenario": name, "seed": seed, "error": str(error).strip().splitlines()[0]}
         runs.append(figures)
         if not as_json:
-            print(" ".join(f"{key} {figures[key]}" for key in SUMMED if key in figures), flush=True)
+            print(" ".join(f"{key} {figures[key]}" for key in SHOWN if key in figures), flush=True)
     summary = over_seeds(runs)
     _print(
         {"scenario": name, "seeds": [first, first + seeds - 1], "summary": summary}
         | ({"runs": runs} if as_json else {}),
         as_json,
     )
-    return 0
+    return 1 if summary["failed"] else 0
 
 
-SUMMED = ("seed", "fell", "root_travel_m", "reference_travel_m")  # each run's line under --seeds
+SHOWN = ("seed", "drawn", "fell", "root_travel_m", "reference_travel_m", "error")  # each run's line under --seeds
 
 
 def over_seeds(runs: list[dict]) -> dict:
-    """Several runs' figures summed up: how many fell, the mean travels
-    and, where the runs follow a clip, the robot's over the clip's."""
-    summary = {"runs": len(runs), "falls": sum(bool(run["fell"]) for run in runs)}
-    summary["mean_root_travel_m"] = round(float(np.mean([run["root_travel_m"] for run in runs])), 4)
-    if all("reference_travel_m" in run for run in runs):
-        reference = float(np.mean([run["reference_travel_m"] for run in runs]))
-        summary["mean_reference_travel_m"] = round(reference, 4)
-        summary["travel_ratio"] = round(summary["mean_root_travel_m"] / reference, 4) if reference > 0 else None
+    """Several runs' figures summed up (`--seeds`; runs with an `error` counted apart)."""
+    done = [run for run in runs if "error" not in run]
+    summary = {"runs": len(runs), "failed": len(runs) - len(done)}
+    summary["falls"] = sum(bool(run["fell"]) for run in done)
+    summary["fell_seeds"] = [run["seed"] for run in done if run["fell"]]
+    if done:
+        travel = [run["root_travel_m"] for run in done]
+        summary["mean_root_travel_m"] = round(float(np.mean(travel)), 4)
+        summary["root_travel_range_m"] = [min(travel), max(travel)]
+    if done and all("reference_travel_m" in run for run in done):
+        references = [run["reference_travel_m"] for run in done]
+        summary["mean_reference_travel_m"] = round(float(np.mean(references)), 4)
+        ratio = travel_ratio([run["root_travel_m"] for run in done], references)
+        summary["travel_ratio"] = None if ratio is None else round(ratio, 4)
     return summary
 
 

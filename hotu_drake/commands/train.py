@@ -240,6 +240,7 @@ def _clone_evaluation(restored: RestoredRun, agent: DAggerAgent, envs, workers: 
     motions, standing = restored.settings["motions"], restored.run.standing_action
     if len(motions) == 1:
         return clone_report(agent, envs, standing, episodes, seed)
+    envs.close()  # the agent acts without them; each motion gets its own workers
     by_motion = {}
     for motion in motions:
         motion_envs = restored.run.vector_env(workers, evaluation=True, motions=[motion])

@@ -39,7 +39,6 @@ from hotu_drake.scenario import LIMITS, ActionInput, InitialCondition, Scenario,
 from hotu_drake.systems.motion_reference import (
     EXTRAS,
     PHASE_SIZE,
-    REFERENCE_SIZE,
     clip_phase,
     extra_size,
     pose_features,
@@ -365,14 +364,17 @@ class DiagramEnv(gym.Env):
         `time_`, aligned as reference starts are (for behavior cloning)."""
         self.clip_amp_frame(clip_index, time_)  # sets the scratch contexts to that state
         robot = self._observer.GetOutputPort("observation").Eval(self._scratch_observer)
-        extra = self._extra_observation()
-        if self.phase_observation:  # the clip's phase at that time, not the episode's
-            extra[:PHASE_SIZE] = self._phase_at(clip_index, time_)
-        if self.reference_observation:  # on the reference: nothing off but where its own feet are
-            at = PHASE_SIZE if self.phase_observation else 0
-            extra[at : at + REFERENCE_SIZE] = self._features_on_reference()
-        if self.pose_observation:  # on the reference: its joints are the robot's
-            extra[-extra_size("pose", self.embodiment) :] = 0.0
+        extra = self._extra_observation()  # a task's goal after the extras stays the episode's
+        on_clip = {  # each extra at the clip's state: its phase then, not the episode's; nothing off its own
+            "phase": lambda: self._phase_at(clip_index, time_),
+            "reference": self._features_on_reference,  # but where its own feet are
+            "pose": lambda: np.zeros(extra_size("pose", self.embodiment)),
+        }
+        at = 0
+        for name in self._extras():
+            size = extra_size(name, self.embodiment)
+            extra[at : at + size] = on_clip[name]()
+            at += size
         return np.concatenate([robot, extra]).astype(np.float32)
 
     def _features_on_reference(self) -> np.ndarray:

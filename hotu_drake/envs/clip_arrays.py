@@ -87,10 +87,11 @@ def _cache_key(env: DiagramEnv) -> str:
     digest = hashlib.sha256()
     digest.update(_code_key().encode())
     from hotu_drake.envs import base
-    from hotu_drake.systems import observation
+    from hotu_drake.systems import motion_reference, observation
 
     task = sys.modules[type(env).__module__].__file__  # a task environment's own observation
-    for source in (__file__, base.__file__, observation.__file__, task):  # the code that makes the arrays
+    sources = (__file__, base.__file__, observation.__file__, motion_reference.__file__, task)
+    for source in sources:  # the code that makes the arrays
         with open(source, "rb") as f:
             digest.update(f.read())
     description = {

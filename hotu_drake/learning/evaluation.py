@@ -282,8 +282,8 @@ def behavior_summary(report: dict) -> dict:
         return {
             f"{motion}_{who}_{k}": evaluation[who][k]
             for motion, evaluation in report["evaluation"]["by_motion"].items()
-            for who in ("policy", "teacher")
-            for k in keys[:2]
+            for who in ("policy", "teacher", "standing")
+            for k in keys
         }
     policy, standing = report["evaluation"]["policy"], report["evaluation"]["standing"]
     if "teacher" in report["evaluation"]:
@@ -327,6 +327,15 @@ def task_summary(report: dict) -> dict:
 
 
 InfoPolicy = Callable[[np.ndarray, dict], np.ndarray]
+MIN_REFERENCE_TRAVEL = 0.05  # m: an episode whose clip moves less has no travel ratio (a wave's would be noise)
+
+
+def travel_ratio(travels: list[float], references: list[float]) -> float | None:
+    """The mean over episodes of the robot's travel over its clip's (each
+    episode's own), those whose clip moves under `MIN_REFERENCE_TRAVEL`
+    left out; None if that leaves none."""
+    ratios = [t / r for t, r in zip(travels, references) if r > MIN_REFERENCE_TRAVEL]
+    return float(np.mean(ratios)) if ratios else None
 
 
 def teacher_policy(observations: np.ndarray, info: dict) -> np.ndarray:
@@ -340,8 +349,7 @@ def follow_clips(envs, policy: InfoPolicy, episodes: int = 20, seed: int = 0) ->
     with `teacher=True`, so that each step's info has where the clip's
     root is): the fall rate, the mean episode length (s, from
     `info["time"]`), and the pelvis' horizontal travel over each episode
-    against the reference's over the same time (`travel_ratio`, the
-    mean of the episodes' ratios)."""
+    against the reference's over the same time (`travel_ratio`)."""
     observations, info = envs.reset(seed=seed)
     start = {key: np.array(info[key]) for key in ("root_xy", "reference_root_xy")}
     falls, seconds, travel, reference = 0, [], [], []
@@ -356,14 +364,13 @@ def follow_clips(envs, policy: InfoPolicy, episodes: int = 20, seed: int = 0) ->
                 reference.append(float(np.linalg.norm(last["reference_root_xy"][i] - start["reference_root_xy"][i])))
             for key in start:
                 start[key][i] = info[key][i]
-    ratios = [t / r for t, r in zip(travel, reference) if r > 0.05]
     return {
         "episodes": len(seconds),
         "fall_rate": falls / len(seconds),
         "mean_episode_seconds": float(np.mean(seconds)),
         "root_travel_m": float(np.mean(travel)),
         "reference_travel_m": float(np.mean(reference)),
-        "travel_ratio": float(np.mean(ratios)) if ratios else None,
+        "travel_ratio": travel_ratio(travel, reference),
     }
 
 

@@ -10,8 +10,9 @@ them in training (`phase_observation`, `reference_observation`,
 diagram, without the controller's QP: the clip is placed where the
 robot starts (its start over the robot's root, facing the robot's
 heading) and tracked from where the robot's feet land, as the
-controller tracks it (`control.footing`; a controller's catch steps,
-which ease its footing faster, are not followed).
+controller tracks it (`control.footing`). A controller's catch steps are
+not followed: during one the controller takes the catching foot off the
+planted ones and eases its footing faster.
 """
 
 from __future__ import annotations

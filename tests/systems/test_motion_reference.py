@@ -2,6 +2,7 @@
 
 import gymnasium as gym
 import numpy as np
+from pydrake.systems.analysis import Simulator
 
 import hotu_drake.envs  # noqa: F401
 from hotu_drake import embodiment
@@ -52,17 +53,37 @@ def test_it_follows_the_clip_as_the_teachers_environment_does():
     port = system.GetInputPort("state")
     port.FixValue(own, plant.GetPositionsAndVelocities(context, model))
     system.ExecuteInitializationEvents(own)
-    shifts = []
+    shifts, states = [], []
     for step in range(90):
         if step:
             observation, _, terminated, _, info = env.step(info["teacher_action"])
             assert not terminated
             port.FixValue(own, plant.GetPositionsAndVelocities(context, model))
+        states.append(plant.GetPositionsAndVelocities(context, model))
         own.SetTime(context.get_time())  # the environment's own sum of periods, as its teacher is asked at
         given = np.concatenate([system.GetOutputPort(extra).Eval(own) for extra in ("phase", "reference", "pose")])
         np.testing.assert_allclose(given, observation[-len(given) :], atol=1e-5, err_msg=f"{step}")
         own.get_mutable_discrete_state().SetFrom(system.EvalUniquePeriodicDiscreteUpdate(own))  # this step's update
         shifts.append(system.shift(own))
     assert max(np.linalg.norm(shift) for shift in shifts) > 0.005  # the clip moved to where the feet stood
+    # Drake's own event order gives the same: the same states at each period's instant (as Drake times its
+    # periodic events: a whole number of periods), in a Simulator.
+    period = 1.0 / RATE
+    simulator = Simulator(system)
+    simulated = simulator.get_mutable_context()
+    by_hand = system.CreateDefaultContext()
+    for step, state in enumerate(states):
+        if step:
+            simulator.AdvanceTo(step * period)  # the update at the last period's instant, from the last state
+        port.FixValue(simulated, state)
+        port.FixValue(by_hand, state)
+        if step == 0:
+            simulator.Initialize()
+            system.ExecuteInitializationEvents(by_hand)
+        by_hand.SetTime(step * period)
+        for extra in ("phase", "reference", "pose"):
+            expected = system.GetOutputPort(extra).Eval(by_hand)
+            np.testing.assert_array_equal(system.GetOutputPort(extra).Eval(simulated), expected, err_msg=f"{step}")
+        by_hand.get_mutable_discrete_state().SetFrom(system.EvalUniquePeriodicDiscreteUpdate(by_hand))
     assert np.abs(given[-pose:]).max() > 0.01  # the teacher does not hold every joint on the clip's
     env.close()
