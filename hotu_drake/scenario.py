@@ -437,7 +437,7 @@ class Scenario:
             obj.position, obj.yaw, obj.target = list(task.start), task.start_yaw, list(task.target)
             values[f"{obj.instance_name}.start"] = [round(x, 4) for x in task.start]
             values[f"{obj.instance_name}.target"] = [round(x, 4) for x in task.target]
-        if isinstance(out.driver, PolicyCheckpoint) and self.seed:
+        if isinstance(out.driver, PolicyCheckpoint) and out.driver.latents == "prior" and self.seed:
             out.driver.latent_seed = values["driver.latent_seed"] = (self.driver.latent_seed + self.seed) % 2**31
         return out, {name: round(value, 4) if isinstance(value, float) else value for name, value in values.items()}
 
