@@ -30,7 +30,8 @@ def test_demo_prints_the_table_and_writes_the_gallery(tmp_path):
     assert page.stat().st_size > 100_000
     legged = ("bruce", "h1", "naviai", "udh", "walker")
     perturbations = [f"perturb_{robot}.html" for robot in legged]
-    learned = ["learned_bruce_squat.html", "learned_h1_upper_body.html", "learned_h1_wave.html"]  # systems/policies
+    learned = ["learned_bruce_squat.html", "learned_h1_upper_body.html", "learned_h1_walk.html", "learned_h1_wave.html"]
+    # (systems/policies)
     walking = [f"whole_body_walk_{robot}.html" for robot in legged]  # systems/whole_body.yaml
     expected = sorted(["box_carry.html", "clips", "gallery.html", "walk.html", *perturbations, *learned, *walking])
     assert sorted(p.name for p in tmp_path.iterdir()) == expected
