@@ -1,4 +1,4 @@
-"""MotionReference: a clip's phase and its reference against the robot, for a policy that follows the clip.
+"""MotionReference: a clip's phase, reference and joints against the robot, for a policy that follows the clip.
 
 A controller cloned from the whole-body controller (`learning.dagger`)
 may observe, besides the robot, where it is in its clip (`phase`: the
@@ -16,6 +16,8 @@ planted ones and eases its footing faster.
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 from pydrake.math import RigidTransform, RotationMatrix
@@ -68,7 +70,7 @@ def reference_features(
     reference_root: RigidTransform,
     reference_com: np.ndarray,
     reference_com_velocity: np.ndarray,
-    reference_feet: np.ndarray | None,
+    reference_feet: Sequence[np.ndarray] | None,
     frame: RigidTransform,
     shift: np.ndarray,
 ) -> np.ndarray:
@@ -107,7 +109,7 @@ def planar_transform(x: float, y: float, yaw: float) -> RigidTransform:
 
 
 class MotionReference(LeafSystem):
-    """A clip's phase and reference against the robot (see the module docstring).
+    """A clip's phase, reference and joints against the robot (see the module docstring).
 
     .. pydrake_system::
 
