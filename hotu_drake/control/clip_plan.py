@@ -269,6 +269,7 @@ class ClipPlan:
         self._pass_maps: dict[int, tuple[Planar, Planar]] = {}  # per pass, into the plan and back (`_plan_maps`)
         self._pass_turns: dict[int, np.ndarray] = {}  # `_pass_turn`
         self._last_frame = (np.nan, 0)  # `frame`'s last time and answer
+        self._pelvis = plant.GetBodyByName(embodiment.key_bodies["pelvis"], model)  # `pelvis_travel`
         self._feet = {
             f"{side}_foot": plant.GetBodyByName(embodiment.key_bodies[f"{side}_foot"], model)
             for side in ("left", "right")
@@ -289,9 +290,14 @@ class ClipPlan:
         """The robot's root body on the plan's plant."""
         return self._root
 
-    def foot_body(self, name: str):
-        """Foot `name`'s body (`left_foot`, `right_foot`) on the plan's plant."""
-        return self._feet[name]
+    def feet_positions(self, context) -> list[np.ndarray] | None:
+        """The left and right feet's origins (world) in `context` of the
+        plan's plant (the reference, as `set_reference` sets it); None
+        without both feet."""
+        if len(self._feet) < 2:
+            return None
+        feet = (self._feet[f"{side}_foot"] for side in ("left", "right"))
+        return [self.plant.EvalBodyPoseInWorld(context, foot).translation() for foot in feet]
 
     @staticmethod
     def _sole_anchor(corners: np.ndarray) -> np.ndarray:
@@ -349,14 +355,14 @@ class ClipPlan:
         placement = self.placement(index)
         return placement.rotation @ self.playback.root_pose_at(clip_time)[1] + placement.shift
 
-    def travel(self, body, start: float, duration: float) -> float:
-        """How far (m, horizontally) `body` (of the plan's plant) moves in
-        the clip over `duration` s from `start` (a loop carrying its root
-        motion on)."""
+    def pelvis_travel(self, start: float, duration: float) -> float:
+        """How far (m, horizontally) the clip's pelvis moves over `duration`
+        s from `start` (a loop carrying its root motion on): what a run that
+        follows the clip is measured against."""
         scratch, ends = self.plant.CreateDefaultContext(), []
         for time in (start, start + duration):
             self.set_reference(scratch, time)
-            ends.append(self.plant.EvalBodyPoseInWorld(scratch, body).translation())
+            ends.append(self.plant.EvalBodyPoseInWorld(scratch, self._pelvis).translation())
         return float(np.linalg.norm((ends[1] - ends[0])[:2]))
 
     def velocities(self, time: float) -> np.ndarray:

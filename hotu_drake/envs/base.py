@@ -499,12 +499,6 @@ class DiagramEnv(gym.Env):
         plan.set_reference(reference, time_)
         plant, context, model = self.sim.plant, self._plant_context, [self.sim.model]
         com, com_velocity, _ = plan.com_reference(time_)
-        feet = None
-        if self._has_feet():
-            feet = [
-                clip_plant.EvalBodyPoseInWorld(reference, plan.foot_body(f"{side}_foot")).translation()
-                for side in ("left", "right")
-            ]
         return reference_features(
             plant.EvalBodyPoseInWorld(context, self._root),
             plant.CalcCenterOfMassPositionInWorld(context, model),
@@ -512,7 +506,7 @@ class DiagramEnv(gym.Env):
             clip_plant.EvalBodyPoseInWorld(reference, plan.root_body),
             com,
             com_velocity,
-            feet,
+            plan.feet_positions(reference),
             self._episode_frame,
             teacher.footing_shift,
         )

@@ -37,7 +37,6 @@ PHASE_SIZE = 2  # `clip_phase`: the sine and cosine of where the robot is in its
 # `reference_features`: the reference's root (3), heading (2), CoM position (3) and velocity (3) and feet
 # (2 x 3), against the robot's, in its heading frame
 REFERENCE_SIZE = 17
-SIDES = ("left", "right")
 EXTRAS = ("phase", "reference", "pose")  # what a clip-following policy may observe after the robot, in order
 
 
@@ -149,7 +148,6 @@ class MotionReference(LeafSystem):
         self.footing = Footing(plant, self.plan, feet_soles(plant, embodiment), control_period)
         self._root = plant.GetBodyByName(embodiment.spec.root.name, model)
         self._models = [model]
-        self._has_feet = all(f"{side}_foot" in embodiment.key_bodies for side in SIDES)
         self._start = alignment(ClipPlayback(clip, loop=False), start_time)  # the clip's start at the origin
         self._playback = ClipPlayback(clip, loop)  # its joints (`pose`)
         self._joints = actuated_state_indices(plant, model, embodiment.joint_names)
@@ -173,8 +171,7 @@ class MotionReference(LeafSystem):
 
     def reference_travel(self, duration: float) -> float:
         """How far (m, horizontally) the clip's pelvis moves over `duration` s from the start."""
-        pelvis = self._plant.GetBodyByName(self.embodiment.key_bodies["pelvis"])
-        return self.plan.travel(pelvis, self.start_time, duration)
+        return self.plan.pelvis_travel(self.start_time, duration)
 
     def clip_time(self, context: Context) -> float:
         return self.start_time + context.get_time()
@@ -218,11 +215,6 @@ class MotionReference(LeafSystem):
         time = self.clip_time(context)
         plan.set_reference(reference, time)
         com, com_velocity, _ = plan.com_reference(time)
-        feet = None
-        if self._has_feet:
-            feet = [
-                plant.EvalBodyPoseInWorld(reference, plan.foot_body(f"{side}_foot")).translation() for side in SIDES
-            ]
         features = reference_features(
             plant.EvalBodyPoseInWorld(robot, self._root),
             plant.CalcCenterOfMassPositionInWorld(robot, self._models),
@@ -230,7 +222,7 @@ class MotionReference(LeafSystem):
             plant.EvalBodyPoseInWorld(reference, plan.root_body),
             com,
             com_velocity,
-            feet,
+            plan.feet_positions(reference),
             self.frame(context),
             self.shift(context),
         )

@@ -406,8 +406,7 @@ class WholeBodyController(LeafSystem):
     def reference_travel(self, duration: float) -> float:
         """How far (m, horizontally) the clip's pelvis moves over `duration` s
         from the controller's start (a loop carrying its root motion on)."""
-        pelvis = self._plant.GetBodyByName(self.embodiment.key_bodies["pelvis"])
-        return self.plan.travel(pelvis, self.start_time, duration)
+        return self.plan.pelvis_travel(self.start_time, duration)
 
     @property
     def plant(self) -> MultibodyPlant:
