@@ -149,6 +149,15 @@ def alignment(reference: ClipPlayback, time: float) -> RigidTransform:
     return RigidTransform(RotationMatrix(yaw.T), -yaw.T @ [position[0], position[1], 0.0])
 
 
+def placed_under(root: RigidTransform, start: RigidTransform) -> RigidTransform:
+    """Where a clip's world goes so that its start, brought over the origin
+    facing +x by `start` (`alignment`), lies under the robot's `root` pose
+    facing its heading: how a clip is placed for a robot that did not start
+    on it (`MotionReference`, the environments' `standing_follow`)."""
+    heading = heading_rotation(root.rotation().matrix())
+    return RigidTransform(RotationMatrix(heading), [*root.translation()[:2], 0.0]) @ start
+
+
 def move_free_body(plant: MultibodyPlant, context, body, transform: RigidTransform) -> None:
     """Move a free body's pose and spatial velocity (world) by `transform`:
     a robot's state seen in another frame (a clip's, `alignment`)."""

@@ -34,7 +34,14 @@ from hotu_drake.errors import InputError, check_bool, check_choice, check_number
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.playback import ClipPlayback
 from hotu_drake.objects import SceneObject, place_objects
-from hotu_drake.plant import FallCheck, actuated_state_indices, alignment, move_free_body, set_robot_state
+from hotu_drake.plant import (
+    FallCheck,
+    actuated_state_indices,
+    alignment,
+    move_free_body,
+    placed_under,
+    set_robot_state,
+)
 from hotu_drake.scenario import LIMITS, ActionInput, InitialCondition, Scenario, load_scenario
 from hotu_drake.systems.motion_reference import (
     EXTRAS,
@@ -125,6 +132,7 @@ class DiagramEnv(gym.Env):
         reference_start_time: float | None = None,
         reference_observation: bool = False,
         pose_observation: bool = False,
+        standing_follow: bool = False,
     ):
         """`scenario` as `environment_scenario` makes it; `embodiment`
         overrides its robot (e.g. a resized UDH). With `teacher`, every
@@ -139,7 +147,11 @@ class DiagramEnv(gym.Env):
         `reference_observation` (and `teacher`), the observation ends with
         where the teacher's reference is against the robot
         (`reference_features`); with `pose_observation`, with the clip's
-        joints against the robot's (`reference_pose`). Bad keywords raise
+        joints against the robot's (`reference_pose`). With
+        `standing_follow`, a default start (the standing pose, dropped)
+        follows one of the clips from `reference_start_time` (default 0),
+        the clip placed under the robot as `MotionReference` places it: the
+        start a deployed clip-following policy gets. Bad keywords raise
         `InputError`."""
         where = type(self).__name__
         amp_history = check_number(amp_history, "amp_history", where, low=1, high=MAX_AMP_HISTORY, integer=True)
@@ -153,6 +165,7 @@ class DiagramEnv(gym.Env):
         self.loop = check_bool(loop, "loop", where)
         self.reference_observation = check_bool(reference_observation, "reference_observation", where)
         self.pose_observation = check_bool(pose_observation, "pose_observation", where)
+        self.standing_follow = check_bool(standing_follow, "standing_follow", where)
         if self.reference_observation and not self.teacher:
             raise InputError("the reference observation is the teacher's reference: give teacher=True", where)
         if reference_start_time is not None:
@@ -244,7 +257,10 @@ class DiagramEnv(gym.Env):
         context.SetTime(0.0)
         kind = options.get("init")
         if kind is None:
-            kind = "reference" if self.np_random.random() < self.reference_init_probability else "default"
+            if {"clip", "time"} & options.keys():
+                kind = "reference"
+            else:
+                kind = "reference" if self.np_random.random() < self.reference_init_probability else "default"
         history = None
         self._episode_clip, self._episode_start, self._episode_frame = None, 0.0, RigidTransform()
         if kind == "reference":
@@ -264,6 +280,12 @@ class DiagramEnv(gym.Env):
             history = [self.clip_amp_frame(index, t) for t in past]
         else:
             self._set_default_state(float(self.np_random.uniform(0.0, self.drop_height)))
+            if self.standing_follow and self.clips:
+                index = options.get("clip", int(self.np_random.integers(len(self.clips))))
+                start = min(float(options.get("time", self.reference_start_time or 0.0)), self.clips[index].duration)
+                root = self.sim.plant.EvalBodyPoseInWorld(self._plant_context, self._root)
+                self._episode_clip, self._episode_start = index, start
+                self._episode_frame = placed_under(root, alignment(self._playbacks[index], start))
         self.init_kind = kind
         if self.teacher:
             self._teacher().reset()
@@ -279,8 +301,10 @@ class DiagramEnv(gym.Env):
         return self._last
 
     def _check_reset_options(self, options: dict) -> dict:
-        """`init` ('reference' or 'default'), and for a reference start the
-        `clip` index and the `time` (s) in it; `InputError` otherwise."""
+        """`init` ('reference' or 'default'; a `clip` or `time` alone means
+        'reference'), and for a start on a clip (a reference start, or a
+        default one with `standing_follow`) the `clip` index and the `time`
+        (s) in it; `InputError` otherwise."""
         where = f"{type(self).__name__}.reset"
         if not isinstance(options, dict):
             raise InputError(f"{options!r} is not a dict", where, "options")
@@ -289,9 +313,13 @@ class DiagramEnv(gym.Env):
             raise InputError(f"unknown option(s) {', '.join(map(repr, unknown))} (known: init, clip, time)", where)
         if "init" in options:
             check_choice(options["init"], "options['init']", ("reference", "default"), where)
-        reference = options.get("init") == "reference" or {"clip", "time"} & options.keys()
-        if reference and not self.clips:
-            raise InputError("a reference start needs reference clips (the env has none)", where, "options['init']")
+        chosen = {"clip", "time"} & options.keys()
+        if options.get("init") == "default" and chosen and not self.standing_follow:
+            raise InputError(
+                "a default start follows no clip unless the env has standing_follow=True", where, "options['clip']"
+            )
+        if (options.get("init") == "reference" or chosen) and not self.clips:
+            raise InputError("a start on a clip needs reference clips (the env has none)", where, "options['init']")
         if "clip" in options:
             high = len(self.clips) - 1
             check_number(options["clip"], "options['clip']", where, low=0, high=high, integer=True)

@@ -76,9 +76,10 @@ def imitation_run(settings: dict, config) -> RunEnvironments:
             "tracking_reward": env.tracking_reward,
             "reference_observation": env.reference_observation,
             "pose_observation": env.pose_observation,
+            "standing_follow": env.standing_follow,
             "max_episode_steps": round(EPISODE_SECONDS * env.control_rate),
         }
-        if evaluation and env.teacher:  # each clip from its start
+        if evaluation and env.teacher and not env.standing_follow:  # each clip from its start
             made |= {"reference_init_probability": 1.0, "reference_start_time": 0.0}
         return made
 

@@ -194,6 +194,9 @@ class EnvironmentConfig:
     tracking_reward: bool = False  # the environment's reward: DeepMimic's tracking of the clip (`envs.tracking`)
     reference_observation: bool = False  # the observation ends with the teacher's reference against the robot
     pose_observation: bool = False  # ... and with the clip's joint positions and velocities less the robot's
+    # A standing start (the share 1 - reference_init_probability) follows one of the clips from its start,
+    # placed under the robot: a deployed clip-following policy's start. The run's evaluation then starts there.
+    standing_follow: bool = False
     termination_height: float = 0.5
     amp_history: int = 10
     # End an episode after `style_patience` steps under this combined style reward; 0: off (the

@@ -30,7 +30,7 @@ from hotu_drake.control.whole_body_qp import feet_soles
 from hotu_drake.embodiment import Embodiment
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.playback import ClipPlayback
-from hotu_drake.plant import actuated_state_indices, alignment, move_free_body
+from hotu_drake.plant import actuated_state_indices, alignment, move_free_body, placed_under
 from hotu_drake.rotations import heading_rotation
 
 PHASE_SIZE = 2  # `clip_phase`: the sine and cosine of where the robot is in its clip
@@ -181,10 +181,7 @@ class MotionReference(LeafSystem):
 
     def _Place(self, context: Context, discrete_state: DiscreteValues) -> None:
         self._set_robot(context)
-        pose = self._plant.EvalBodyPoseInWorld(self._robot, self._root)
-        heading = heading_rotation(pose.rotation().matrix())
-        robot = RigidTransform(RotationMatrix(heading), [*pose.translation()[:2], 0.0])
-        frame = robot @ self._start
+        frame = placed_under(self._plant.EvalBodyPoseInWorld(self._robot, self._root), self._start)
         yaw = np.arctan2(frame.rotation().matrix()[1, 0], frame.rotation().matrix()[0, 0])
         discrete_state.set_value(self._placement, [*frame.translation()[:2], yaw])
         discrete_state.set_value(self._shift, np.zeros(3))
