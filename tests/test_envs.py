@@ -424,3 +424,31 @@ def test_the_pose_observation_gives_the_clips_joints_against_the_robots():
     observation, _ = env.reset(seed=0, options={"init": "default"})
     np.testing.assert_array_equal(observation[-2 * joints :], 0.0)
     env.close()
+
+
+def test_a_standing_start_follows_its_clip_placed_under_the_robot():
+    """With `standing_follow`, a default start (the standing pose, dropped)
+    follows the clip from its start, placed under the robot: the phase at
+    the clip's start, the reference's root over the robot's, no yaw between
+    them, a tracking reward; without it a default start follows nothing,
+    and asking it for a clip is an error. A clip alone asks for a reference
+    start."""
+    options = {"robot": "h1", "hands": "none", "motions": WALK, "control_rate": 60.0, "loop": True, "teacher": True}
+    extras = {"phase_observation": True, "reference_observation": True, "tracking_reward": True}
+    env = gym.make("hotu_drake/Imitation-v0", standing_follow=True, **extras, **options)
+    observation, info = env.reset(seed=1, options={"init": "default"})
+    assert info["init"] == "default"
+    reference = observation[-REFERENCE_SIZE:]
+    np.testing.assert_allclose(observation[-REFERENCE_SIZE - 2 : -REFERENCE_SIZE], [0.0, 1.0], atol=1e-9)
+    np.testing.assert_allclose(reference[:2], 0.0, atol=1e-6)  # the clip's start under the robot's root
+    np.testing.assert_allclose(reference[3:5], [0.0, 1.0], atol=1e-6)  # facing its heading
+    np.testing.assert_allclose(info["reference_root_xy"], info["root_xy"], atol=0.05)  # pelvis against root
+    assert env.step(info["teacher_action"])[1] > 0.0  # the clip is tracked, so rewarded
+    plain = gym.make("hotu_drake/Imitation-v0", **extras, **options)
+    observation, _ = plain.reset(seed=1, options={"init": "default"})
+    np.testing.assert_array_equal(observation[-REFERENCE_SIZE - 2 : -REFERENCE_SIZE], [0.0, 0.0])
+    with pytest.raises(InputError, match="standing_follow"):
+        plain.reset(seed=1, options={"init": "default", "clip": 0})
+    assert plain.reset(seed=1, options={"clip": 0})[1]["init"] == "reference"
+    env.close()
+    plain.close()

@@ -2,10 +2,13 @@
 
 import gymnasium as gym
 import numpy as np
+import pytest
+from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.analysis import Simulator
 
 import hotu_drake.envs  # noqa: F401
 from hotu_drake import embodiment
+from hotu_drake.plant import placed_under
 from hotu_drake.retarget.references import reference_clip
 from hotu_drake.systems.motion_reference import PHASE_SIZE, REFERENCE_SIZE, MotionReference, clip_phase
 from tests.systems.ports import assert_port_contract
@@ -29,12 +32,15 @@ def test_clip_phase():
     np.testing.assert_allclose(clip_phase(5.0, 2.0, loop=False), [0.0, -1.0], atol=1e-12)  # held at its end
 
 
-def test_it_follows_the_clip_as_the_teachers_environment_does():
+@pytest.mark.parametrize("start", ["reference", "default"])
+def test_it_follows_the_clip_as_the_teachers_environment_does(start):
     """Stepped along an episode the teacher performs (H1's looped walk,
-    1.5 s at 60 Hz), the system fed the robot's states gives the phase,
-    reference and pose the environment observed at each step, its footing
-    shift (the teacher's, in the environment) moving as the feet land: the
-    numbers a clone observed in training, without the teacher's QP."""
+    1.5 s at 60 Hz), from the clip's first frame or from the standing pose
+    dropped (`standing_follow`: the clip placed under the robot), the
+    system fed the robot's states gives the phase, reference and pose the
+    environment observed at each step, its footing shift (the teacher's,
+    in the environment) moving as the feet land: the numbers a clone
+    observed in training, without the teacher's QP."""
     options = {"robot": "h1", "hands": "none", "motions": ["walk"], "control_rate": RATE, "loop": True}
     env = gym.make(
         "hotu_drake/Imitation-v0",
@@ -42,11 +48,14 @@ def test_it_follows_the_clip_as_the_teachers_environment_does():
         phase_observation=True,
         reference_observation=True,
         pose_observation=True,
+        standing_follow=True,
         **options,
     )
     inner = env.unwrapped
     pose = 2 * len(inner.embodiment.joint_names)
-    observation, info = env.reset(seed=0, options={"init": "reference", "clip": 0, "time": 0.0})
+    chosen = {"clip": 0, "time": 0.0} if start == "reference" else {}
+    observation, info = env.reset(seed=3, options={"init": start, **chosen})
+    assert info["init"] == start
     plant, model, context = inner.sim.plant, inner.sim.model, inner._plant_context
     system = MotionReference(inner.embodiment, inner.clips[0], 1.0 / RATE, loop=True)
     own = system.CreateDefaultContext()
@@ -87,3 +96,16 @@ def test_it_follows_the_clip_as_the_teachers_environment_does():
         by_hand.get_mutable_discrete_state().SetFrom(system.EvalUniquePeriodicDiscreteUpdate(by_hand))
     assert np.abs(given[-pose:]).max() > 0.01  # the teacher does not hold every joint on the clip's
     env.close()
+
+
+def test_a_clip_is_placed_under_the_robots_root_facing_its_heading():
+    """`placed_under`: the clip's start (brought to the origin facing +x by
+    `start`) goes under a turned, tilted, raised root, on the floor, turned
+    by the root's heading alone."""
+    start = RigidTransform(RotationMatrix.MakeZRotation(0.3), [0.5, -0.2, 0.0])
+    tilt = RotationMatrix.MakeZRotation(np.pi / 2) @ RotationMatrix.MakeYRotation(0.2)
+    placed = placed_under(RigidTransform(tilt, [1.0, 2.0, 0.9]), start)
+    clip_start = start.inverse().translation()  # the clip's world point that `start` takes to the origin
+    np.testing.assert_allclose(placed @ clip_start, [1.0, 2.0, 0.0], atol=1e-12)
+    heading = placed.rotation().matrix() @ start.inverse().rotation().matrix()
+    np.testing.assert_allclose(heading, RotationMatrix.MakeZRotation(np.pi / 2).matrix(), atol=1e-12)
