@@ -40,7 +40,6 @@ import hashlib
 import time
 from dataclasses import dataclass, field
 from functools import singledispatch
-from pathlib import Path
 
 import numpy as np
 from pydrake.geometry import Meshcat, SceneGraph
@@ -68,7 +67,7 @@ from hotu_drake.plant import (
     connect_applied_forces,
     set_robot_state,
 )
-from hotu_drake.retarget.references import reference_clip
+from hotu_drake.retarget.references import looped_motions, motion_key, reference_clip
 from hotu_drake.scenario import (
     LATENT_CHOICES,
     ActionInput,
@@ -503,12 +502,10 @@ def _followed_motion(
     scenario file), from a `MotionReference` placed where the robot starts."""
     scenario, where = parts.scenario, parts.scenario.source or None
 
-    def named(motion: str) -> str:  # a clip by its absolute path, a library motion by its name
-        return str(Path(motion).resolve()) if motion.endswith(".npz") else motion
-
     motions = [str(motion) for motion in meta.get("meta", {}).get("motions", [])]
-    asked = named(str(scenario.resolve(driver.latents))) if driver.latents.endswith(".npz") else driver.latents
-    if asked not in [named(motion) for motion in motions]:
+    asked = motion_key(scenario.resolve(driver.latents)) if driver.latents.endswith(".npz") else driver.latents
+    keys = [motion_key(motion) for motion in motions]
+    if asked not in keys:
         raise InputError(
             f"{path}: the controller follows a clip: give latents one of its motions ({', '.join(motions)}), "
             f"not {driver.latents!r}",
@@ -519,7 +516,8 @@ def _followed_motion(
     if rate and abs(float(rate) - scenario.control_rate) > 1e-9:
         raise InputError(f"{path}: trained at {rate:g} Hz; give the scenario that control_rate", where, "control_rate")
     clip = parts.clip  # the scenario's reference motion: the followed one (`Scenario.followed_motion`)
-    loop = bool(meta["meta"]["config"]["environment"].get("loop", False))
+    setting = meta["meta"]["config"]["environment"].get("loop", False)
+    loop = looped_motions(setting, motions, f"{path}: environment.loop")[keys.index(asked)]
     follower = AddMotionReference(
         parts.builder,
         parts.plant,

@@ -13,6 +13,7 @@ from hotu_drake.learning.config import config_from_dict, preset
 from hotu_drake.learning.dagger import DAggerAgent
 from hotu_drake.learning.evaluation import follow_clips, standing_policy, teacher_policy
 from hotu_drake.learning.ppo import make_batch
+from hotu_drake.retarget.references import looped_motions
 from tests import toy_env
 
 
@@ -161,6 +162,18 @@ def test_dagger_without_the_teacher_in_its_environments_is_refused():
     assert config.environment.control_rate == 60.0 and config.environment.phase_observation
     with pytest.raises(InputError, match="tracking_reward"):
         config_from_dict({"algo": "dagger", "teacher": {"ppo_after": 1000}})
+
+
+def test_a_loop_setting_is_a_flag_or_the_motions_that_repeat():
+    assert config_from_dict({"algo": "dagger", "environment": {"loop": ["walk"]}}).environment.loop == ["walk"]
+    assert config_from_dict({"algo": "dagger", "environment": {"loop": True}}).environment.loop is True
+    for bad in (3, "walk", [1], [""]):
+        with pytest.raises(InputError, match="environment.loop.*true, false or a list of motion names"):
+            config_from_dict({"algo": "dagger", "environment": {"loop": bad}})
+    assert looped_motions(["walk"], ["walk", "squat"]) == [True, False]
+    assert looped_motions(True, ["walk", "squat"]) == [True, True]
+    with pytest.raises(InputError, match="jump: not among the motions \\(walk, squat\\)"):
+        looped_motions(["walk", "jump"], ["walk", "squat"])
 
 
 def test_an_environment_without_labels_is_named():

@@ -228,11 +228,12 @@ def test_a_scenario_that_varies_runs_the_member_its_seed_draws(tmp_path):
     assert drawn == {} and written.to_yaml() == load_scenario("box_udh").to_yaml()
 
 
-def _clip_following_checkpoint(tmp_path, network, inner) -> str:
+def _clip_following_checkpoint(tmp_path, network, inner, motions=("walk",), loop=True) -> str:
     """A checkpoint of `network` recorded as a DAgger clone of `inner`'s
-    walk that observes its phase, reference and pose, trained at its rate."""
-    environment = {"phase_observation": True, "reference_observation": True, "pose_observation": True, "loop": True}
-    meta = {"algo": "dagger", "motions": ["walk"], "config": {"environment": environment}}
+    walk (or `motions`) that observes its phase, reference and pose,
+    trained at its rate."""
+    environment = {"phase_observation": True, "reference_observation": True, "pose_observation": True, "loop": loop}
+    meta = {"algo": "dagger", "motions": list(motions), "config": {"environment": environment}}
     path = save_checkpoint(tmp_path / "clone.pt", network, "h1", "none", meta, control_rate=1.0 / inner.control_period)
     return str(path)
 
@@ -289,6 +290,38 @@ def test_a_clip_following_clone_replays_its_environments_episode(tmp_path):
     figures = run_scenario(dataclasses.replace(scenario, duration=1.0))
     assert figures["reference_travel_m"] > 0.2  # the walk's pelvis over its first second
     env.close()
+
+
+def test_a_clone_of_several_motions_repeats_those_it_was_trained_to_repeat(tmp_path):
+    """A clone trained with `loop: [walk]` over the walk and the squat
+    follows its walk looped and its squat once, as its environments did."""
+    import gymnasium as gym
+
+    import hotu_drake.envs  # noqa: F401
+    from hotu_drake.learning.networks import PolicyConfig, PolicyNetwork
+
+    extras = {"phase_observation": True, "reference_observation": True, "pose_observation": True}
+    env = gym.make(
+        "hotu_drake/Imitation-v0",
+        robot="h1",
+        hands="none",
+        motions=["walk", "squat"],
+        control_rate=60.0,
+        teacher=True,
+        loop=["walk"],
+        **extras,
+    )
+    assert env.unwrapped.loops == (True, False)
+    size, actions = env.observation_space.shape[0], env.action_space.shape[0]
+    network = PolicyNetwork(PolicyConfig(size, actions, {}))
+    path = _clip_following_checkpoint(tmp_path, network, env.unwrapped, ("walk", "squat"), ["walk"])
+    env.close()
+    for motion, looped in (("walk", True), ("squat", False)):
+        scenario = Scenario(embodiment="h1", driver=PolicyCheckpoint(path, latents=motion), control_rate=60.0)
+        scenario.initial = InitialCondition(drop_height=0.0)
+        scenario.validate()
+        sim = build_simulation(scenario)
+        assert sim.diagram.GetSubsystemByName("motion_reference").loop is looped, motion
 
 
 def test_a_clip_following_clone_needs_one_of_its_motions_at_its_rate(tmp_path):

@@ -197,7 +197,7 @@ def test_a_clone_of_several_motions_is_reported_motion_by_motion(tmp_path, capsy
     standing, and the headline names each motion's figures."""
     config = tmp_path / "tiny.yaml"
     config.write_text(
-        "environment: {loop: true, pose_observation: true}\nppo: {horizon: 60}\n"
+        "environment: {loop: [walk], pose_observation: true}\nppo: {horizon: 60}\n"
         "networks: {policy_hidden: [32, 32], critic_hidden: [8]}\nteacher: {updates: 5, batch_size: 32}\n"
         "torch_threads: 1\n"
     )

@@ -20,6 +20,7 @@ import copy
 import logging
 import time
 from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import gymnasium as gym
@@ -112,6 +113,16 @@ class EnvTimings:
         return {k: round(1000 * v / n, 4) for k, v in parts.items()}
 
 
+def _per_clip(loop: bool | Sequence[bool], clips: int, where: str) -> tuple[bool, ...]:
+    """`loop` as one flag per clip (one flag for all, or one each)."""
+    if isinstance(loop, bool | np.bool_):
+        return (bool(loop),) * clips
+    flags = tuple(loop) if isinstance(loop, Sequence) else ()
+    if len(flags) != clips or not all(isinstance(flag, bool | np.bool_) for flag in flags):
+        raise InputError(f"{loop!r}: give true, false or one flag per clip ({clips})", where, "loop")
+    return tuple(bool(flag) for flag in flags)
+
+
 class DiagramEnv(gym.Env):
     """Shared machinery of the hotu_drake environments (not registered itself)."""
 
@@ -128,7 +139,7 @@ class DiagramEnv(gym.Env):
         termination_height: float = 0.5,
         teacher: bool = False,
         phase_observation: bool = False,
-        loop: bool = False,
+        loop: bool | Sequence[bool] = False,
         reference_start_time: float | None = None,
         reference_observation: bool = False,
         pose_observation: bool = False,
@@ -139,9 +150,9 @@ class DiagramEnv(gym.Env):
         step's `info["teacher_action"]` is the whole-body controller's
         action for the state the robot is in (`teacher_action`). With
         `phase_observation`, the observation ends with where the episode is
-        in its clip (`clip_phase`). With `loop`, the clips repeat (the
-        teacher's and the phase's; a walk's reference goes on past its
-        clip). A reference start begins at `reference_start_time` in its
+        in its clip (`clip_phase`). With `loop` (every clip, or one flag
+        per clip), the clips repeat (the teacher's and the phase's; a walk's
+        reference goes on past its clip). A reference start begins at `reference_start_time` in its
         clip (s; default anywhere), dropped from up to `drop_height` as a
         default start is (evaluation episodes then differ). With
         `reference_observation` (and `teacher`), the observation ends with
@@ -162,7 +173,6 @@ class DiagramEnv(gym.Env):
         termination_height = check_number(termination_height, "termination_height", where, low=0.0, high=1.0)
         self.teacher = check_bool(teacher, "teacher", where)
         self.phase_observation = check_bool(phase_observation, "phase_observation", where)
-        self.loop = check_bool(loop, "loop", where)
         self.reference_observation = check_bool(reference_observation, "reference_observation", where)
         self.pose_observation = check_bool(pose_observation, "pose_observation", where)
         self.standing_follow = check_bool(standing_follow, "standing_follow", where)
@@ -190,6 +200,7 @@ class DiagramEnv(gym.Env):
         emb = self.embodiment
         self.scenario = scenario
         self.clips = list(clips or [])
+        self.loops = _per_clip(loop, len(self.clips), where)
         self.control_period = 1.0 / scenario.control_rate
         self.amp_history = amp_history
         self.reference_init_probability = reference_init_probability if self.clips else 0.0
@@ -208,7 +219,7 @@ class DiagramEnv(gym.Env):
         self._fall = FallCheck(sim.plant, sim.model, emb, height_fraction=termination_height)
         self.termination_height = self._fall.min_pelvis_height
         self._playbacks = [ClipPlayback(c, loop=False) for c in self.clips]
-        self._joint_playbacks = [ClipPlayback(c, loop=self.loop) for c in self.clips]  # `reference_pose`
+        self._joint_playbacks = [ClipPlayback(c, loop) for c, loop in zip(self.clips, self.loops)]  # `reference_pose`
         self._joints = actuated_state_indices(sim.plant, sim.model, emb.joint_names)
         n = len(emb.joint_names)
         self.action_space = gym.spaces.Box(-1.0, 1.0, (n,), np.float32)
@@ -492,7 +503,7 @@ class DiagramEnv(gym.Env):
         if key not in self._teachers:
             clip = self.clips[key] if key is not None else standing_clip(self.embodiment)
             step = self.scenario.time_step
-            loop = self.loop and key is not None
+            loop = key is not None and self.loops[key]
             self._teachers[key] = WholeBodyController(self.embodiment, clip, self.control_period, loop, None, 0.0, step)
         return self._teachers[key]
 
@@ -559,7 +570,7 @@ class DiagramEnv(gym.Env):
         return self._phase_at(self._episode_clip, self._clip_time())
 
     def _phase_at(self, clip_index: int, clip_time: float) -> np.ndarray:
-        return clip_phase(clip_time, self.clips[clip_index].duration, self.loop)
+        return clip_phase(clip_time, self.clips[clip_index].duration, self.loops[clip_index])
 
     def pelvis_height(self) -> float:
         return self._fall.pelvis_height(self._plant_context)

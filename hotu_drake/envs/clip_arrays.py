@@ -98,7 +98,7 @@ def _cache_key(env: DiagramEnv) -> str:
         "layout": env.amp_layout(),
         "history": env.amp_history,
         "period": env.control_period,
-        "phase": [env.phase_observation, env.loop],
+        "phase": [env.phase_observation, list(env.loops)],
         "names": motion_names(env),
         "observation": int(env.observation_space.shape[0]),
     }

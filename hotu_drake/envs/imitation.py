@@ -19,6 +19,8 @@
   drops below `termination_height` x its standing height.
 - `motions`: names from the generated library and/or `.npz` clips of the
   embodiment; default the whole library (retargeted once, then cached).
+  `loop`: every clip repeats (True), none (False), or those named (a
+  list of some of `motions`: a walk goes on, a squat is done once).
 - The diagram: the environment's own scenario (H1 without fingers on the
   floor, the default 1/60 s plant step, actions at 30 Hz), or `scenario=` (a
   `Scenario`, a scenario file or a shipped name: its robot, plant and
@@ -32,7 +34,8 @@ from hotu_drake import embodiment as embodiments
 from hotu_drake.envs.base import DiagramEnv, environment_scenario
 from hotu_drake.envs.tracking import CLIP_SCALES, CLIP_WEIGHTS, ClipTracking, tracking_terms
 from hotu_drake.errors import check_bool
-from hotu_drake.retarget.references import reference_clips
+from hotu_drake.motion.library import MOTIONS
+from hotu_drake.retarget.references import looped_motions, reference_clips
 from hotu_drake.scenario import Scenario
 
 
@@ -47,14 +50,18 @@ class ImitationEnv(DiagramEnv):
         control_rate: float | None = None,
         sampled_output_ports: bool | None = None,
         tracking_reward: bool = False,
+        loop: bool | Sequence[str] = False,
         **options,
     ):
         scenario = environment_scenario(scenario, robot, hands, time_step, control_rate, sampled_output_ports)
         emb = embodiments.load(scenario.embodiment, scenario.hands)
-        super().__init__(scenario, reference_clips(emb, motions), emb, **options)
         where = type(self).__name__
+        clips = reference_clips(emb, motions)
+        names = MOTIONS if motions is None else [motions] if isinstance(motions, str) else motions
+        loops = looped_motions(loop, names, f"{where}: loop")
+        super().__init__(scenario, clips, emb, loop=loops, **options)
         self.tracking_reward = check_bool(tracking_reward, "tracking_reward", where)
-        self._tracking = ClipTracking(self.sim.plant, self.sim.model, emb, self._observer, self.clips, self.loop)
+        self._tracking = ClipTracking(self.sim.plant, self.sim.model, emb, self._observer, self.clips, self.loops)
 
     def _task_reward(self, info: dict) -> float:
         if not self.tracking_reward or self._episode_clip is None:

@@ -28,6 +28,7 @@ from hotu_drake.learning.demonstrations import Demonstrations
 from hotu_drake.learning.interaction import transitions
 from hotu_drake.learning.rollout import EnvSpec, make_vector_env
 from hotu_drake.learning.skill_config import TASKS, TRANSFER_TASKS, TWO_LEVEL, SkillConfig
+from hotu_drake.retarget.references import motion_key
 
 IMITATION = "hotu_drake/Imitation-v0"
 EPISODE_SECONDS = 10.0  # a behavior run's episodes, at any control rate (300 steps at the default 30 Hz)
@@ -53,6 +54,9 @@ class RunEnvironments:
         options = dict(self.eval_options if evaluation else self.options)
         if motions is not None:
             options["motions"] = list(motions)
+            if isinstance(options.get("loop"), list):  # those of these motions that repeat
+                repeat = {motion_key(m) for m in options["loop"]}
+                options["loop"] = [m for m in motions if motion_key(m) in repeat]
         return make_vector_env(EnvSpec(self.env_id, options), workers, backend="ray" if ray else "local", address=ray)
 
 

@@ -16,6 +16,8 @@ weighted sum (in [0, 1]). Two environments use them:
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 
@@ -54,9 +56,9 @@ class ClipTracking:
         embodiment: Embodiment,
         observer: ObservationSystem,
         clips: list[MotionClip],
-        loop: bool,
+        loops: Sequence[bool],
     ) -> None:
-        self.plant, self.model, self.embodiment, self.clips, self.loop = plant, model, embodiment, clips, loop
+        self.plant, self.model, self.embodiment, self.clips, self.loops = plant, model, embodiment, clips, loops
         self.observer = observer
         self._context = plant.CreateDefaultContext()  # the reference's state
         self._observer_context = observer.CreateDefaultContext()  # its observation
@@ -70,7 +72,9 @@ class ClipTracking:
         if plan is None:
             clip = self.clips[clip_index]
             scratch = self.plant.CreateDefaultContext()
-            plan = self._plans[clip_index] = ClipPlan(clip, self.plant, self.model, self.embodiment, scratch, self.loop)
+            plan = self._plans[clip_index] = ClipPlan(
+                clip, self.plant, self.model, self.embodiment, scratch, self.loops[clip_index]
+            )
         return plan
 
     def errors(self, observation: np.ndarray, clip_index: int, clip_time: float) -> dict[str, float]:

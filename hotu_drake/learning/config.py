@@ -190,7 +190,9 @@ class EnvironmentConfig:
     control_rate: float = 30.0  # Hz; the teacher needs 60 (BENCHMARKS.md: at 30, H1 walks 10 s from 2 of 6 starts)
     teacher: bool = False  # `info["teacher_action"]`: the whole-body controller's action (dagger)
     phase_observation: bool = False  # the observation ends with the clip's phase
-    loop: bool = False  # the clips repeat (a walk goes on for the whole episode)
+    # The clips repeat (a walk goes on for the whole episode): every one (true), none, or a list of the
+    # motions that do (a clone of a whole library: its walk goes on, its squat is done once).
+    loop: bool | list[str] = field(default=False, metadata={"or_names": True})
     tracking_reward: bool = False  # the environment's reward: DeepMimic's tracking of the clip (`envs.tracking`)
     reference_observation: bool = False  # the observation ends with the teacher's reference against the robot
     pose_observation: bool = False  # ... and with the clip's joint positions and velocities less the robot's
@@ -360,6 +362,13 @@ def _merge(target: Any, data: dict, where: str, prefix: str) -> None:
             if not isinstance(value, dict):
                 raise InputError(f"{name!r} must be a mapping", where, name)
             _merge(current, value, where, f"{name}.")
+        elif fields[key].metadata.get("or_names"):  # a flag, or the names it applies to
+            if isinstance(value, list) and all(isinstance(v, str) and v for v in value):
+                setattr(target, key, list(value))
+            elif isinstance(value, bool):
+                setattr(target, key, value)
+            else:
+                raise InputError(f"{name!r} must be true, false or a list of motion names, not {value!r}", where, name)
         else:
             setattr(target, key, _typed(value, current, where, name))
 

@@ -82,3 +82,25 @@ def reference_clips(embodiment: Embodiment, motions: Iterable[str] | str | None 
     if not clips:
         raise InputError("motions: give at least one motion")
     return clips
+
+
+def motion_key(motion: str | Path) -> str:
+    """How a motion is compared with another: a library name as it is, a clip by its resolved path."""
+    motion = str(motion)
+    return str(Path(motion).expanduser().resolve()) if motion.endswith(".npz") else motion
+
+
+def looped_motions(loop: bool | Iterable[str], motions: Iterable[str], where: str = "loop") -> list[bool]:
+    """Which of `motions` repeat under a `loop` setting: all (True), none
+    (False), or those it names (a walk repeats, a squat need not). A named
+    motion not among `motions` raises `InputError`."""
+    motions = [motion_key(m) for m in motions]
+    if isinstance(loop, bool):
+        return [loop] * len(motions)
+    if isinstance(loop, str | Path) or not all(isinstance(m, str | Path) for m in loop):
+        raise InputError(f"{loop!r}: give true, false or a list of the motions that repeat", field=where)
+    named = {motion_key(m) for m in loop}
+    unknown = sorted(named - set(motions))
+    if unknown:
+        raise InputError(f"{', '.join(unknown)}: not among the motions ({', '.join(motions)})", field=where)
+    return [m in named for m in motions]
