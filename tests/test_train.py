@@ -181,6 +181,7 @@ def test_a_dagger_run_learns_from_the_teacher_and_reports_it_beside_the_teacher(
     teacher, standing = evaluation["teacher"], evaluation["standing"]
     assert teacher["fall_rate"] == 0.0 and teacher["mean_episode_seconds"] == pytest.approx(10.0)
     assert teacher["travel_ratio"] > 0.6 and standing["travel_ratio"] < 0.1, (teacher, standing)
+    assert 0.0 < teacher["coverage_deg"] < standing["coverage_deg"], (teacher, standing)  # the walk's legs swing
     assert read_checkpoint(out / "checkpoint.pt", kind="training")["state"]["labelled"]["size"] == 120
     network, _ = load_checkpoint(out / "policy.pt")  # the robot's observation, the phase and the reference's
     assert network.config.observation_size == observation_size(load_embodiment("h1", "none")) + 2 + REFERENCE_SIZE
@@ -208,6 +209,7 @@ def test_a_clone_of_several_motions_is_reported_motion_by_motion(tmp_path, capsy
     assert set(evaluation["by_motion"]) == {"walk", "wave"}
     for motion, figures in evaluation["by_motion"].items():
         assert figures["teacher"]["fall_rate"] == 0.0 and figures["policy"]["episodes"] == 1, motion
+        assert figures["teacher"]["coverage_deg"] < figures["standing"]["coverage_deg"], motion  # of its own clip
     walk, wave = evaluation["by_motion"]["walk"], evaluation["by_motion"]["wave"]
     assert walk["teacher"]["reference_travel_m"] > 3.0 > wave["teacher"]["reference_travel_m"]  # each its own clip
     headline = json.loads(capsys.readouterr().err.strip().splitlines()[-1])

@@ -245,7 +245,7 @@ def _clone_evaluation(restored: RestoredRun, agent: DAggerAgent, envs, workers: 
     for motion in motions:
         motion_envs = restored.run.vector_env(workers, evaluation=True, motions=[motion])
         try:
-            by_motion[motion] = clone_report(agent, motion_envs, standing, episodes, seed)["evaluation"]
+            by_motion[motion] = clone_report(agent, motion_envs, standing, episodes, seed, [motion])["evaluation"]
         finally:
             motion_envs.close()
     return {"evaluation": {"by_motion": by_motion, "episodes": episodes, "seed": seed}}

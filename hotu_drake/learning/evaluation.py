@@ -277,17 +277,24 @@ def behavior_report(agent, envs, standing: np.ndarray, episodes: int, seed: int)
 def behavior_summary(report: dict) -> dict:
     """A behavior report's headline figures, next to standing's (and the
     teacher's, for a clone; a clone of several motions, each motion's)."""
-    keys = ("fall_rate", "mean_episode_seconds", "travel_ratio")
+    keys = ("fall_rate", "mean_episode_seconds", "travel_ratio", "coverage_deg")  # coverage: newer reports
     if "by_motion" in report["evaluation"]:
         return {
             f"{motion}_{who}_{k}": evaluation[who][k]
             for motion, evaluation in report["evaluation"]["by_motion"].items()
             for who in ("policy", "teacher", "standing")
             for k in keys
+            if k in evaluation[who]
         }
     policy, standing = report["evaluation"]["policy"], report["evaluation"]["standing"]
     if "teacher" in report["evaluation"]:
-        return {f"{who}_{k}": report["evaluation"][who][k] for who in ("policy", "teacher", "standing") for k in keys}
+        evaluation = report["evaluation"]
+        return {
+            f"{who}_{k}": evaluation[who][k]
+            for who in ("policy", "teacher", "standing")
+            for k in keys
+            if k in evaluation[who]
+        }
     return {
         "fall_rate": policy["fall_rate"],
         "normalized_return": round(policy["normalized_return"], 3),
@@ -343,28 +350,50 @@ def teacher_policy(observations: np.ndarray, info: dict) -> np.ndarray:
     return np.asarray(info["teacher_action"], dtype=np.float32)
 
 
-def follow_clips(envs, policy: InfoPolicy, episodes: int = 20, seed: int = 0) -> dict:
+def follow_clips(
+    envs,
+    policy: InfoPolicy,
+    episodes: int = 20,
+    seed: int = 0,
+    coverage_of: tuple[np.ndarray, np.ndarray] | None = None,
+) -> dict:
     """How `policy` (observations and the step's info to actions) performs
     the clips over the first `episodes` episodes to end in `envs` (made
     with `teacher=True`, so that each step's info has where the clip's
     root is): the fall rate, the mean episode length (s, from
     `info["time"]`), and the pelvis' horizontal travel over each episode
-    against the reference's over the same time (`travel_ratio`)."""
+    against the reference's over the same time (`travel_ratio`). With
+    `coverage_of` (the observation's joint-position columns and the
+    reference's joint frames), also `coverage_deg`: the mean over the
+    reference's frames of the distance to the nearest frame of the
+    episodes (`evaluate`'s coverage, over all joints)."""
     observations, info = envs.reset(seed=seed)
     start = {key: np.array(info[key]) for key in ("root_xy", "reference_root_xy")}
     falls, seconds, travel, reference = 0, [], [], []
+    columns = None if coverage_of is None else np.asarray(coverage_of[0])
+    running: list[list[np.ndarray]] = [[] for _ in range(envs.num_envs)]
+    frames: list[np.ndarray] = []
     while len(seconds) < episodes:
         observations, _, terminated, truncated, info = envs.step(policy(observations, info))
-        for i in np.flatnonzero(terminated | truncated):
+        done = terminated | truncated
+        if columns is not None:
+            after = observations.copy()
+            for i in np.flatnonzero(done):  # the ended episode's last state
+                after[i] = info["final_obs"][i]
+            for i in range(envs.num_envs):
+                running[i].append(after[i, columns])
+        for i in np.flatnonzero(done):
             last = info["final_info"]
             if len(seconds) < episodes:
                 falls += int(terminated[i])
                 seconds.append(float(last["time"][i]))
                 travel.append(float(np.linalg.norm(last["root_xy"][i] - start["root_xy"][i])))
                 reference.append(float(np.linalg.norm(last["reference_root_xy"][i] - start["reference_root_xy"][i])))
+                frames.extend(running[i])
+            running[i] = []
             for key in start:
                 start[key][i] = info[key][i]
-    return {
+    report = {
         "episodes": len(seconds),
         "fall_rate": falls / len(seconds),
         "mean_episode_seconds": float(np.mean(seconds)),
@@ -372,17 +401,26 @@ def follow_clips(envs, policy: InfoPolicy, episodes: int = 20, seed: int = 0) ->
         "reference_travel_m": float(np.mean(reference)),
         "travel_ratio": travel_ratio(travel, reference),
     }
+    if coverage_of is not None:
+        report["coverage_deg"] = float(
+            np.degrees(_nearest_distance(np.asarray(coverage_of[1]), np.array(frames)).mean())
+        )
+    return report
 
 
-def clone_report(agent, envs, standing: np.ndarray, episodes: int, seed: int) -> dict:
+def clone_report(agent, envs, standing: np.ndarray, episodes: int, seed: int, motions: list[str] | None = None) -> dict:
     """A teacher-labelled run's evaluation: `follow_clips` of the policy's
     mean, of the teacher itself and of the robot standing, on the same
-    seeded episodes (each clip from its start)."""
+    seeded episodes (each clip from its start), with the coverage of the
+    frames of `motions` (default: all of the agent's demonstrations)."""
     stand = standing_policy(standing)
     runs = {
         "policy": lambda obs, info: agent.act(obs, deterministic=True)[0],
         "teacher": teacher_policy,
         "standing": lambda obs, info: stand(obs),
     }
-    evaluation = {name: follow_clips(envs, act, episodes, seed) for name, act in runs.items()}
+    demos = agent.demos
+    reference = np.concatenate([demos.motions[m].joints for m in (motions or list(demos.motions))])
+    coverage_of = (np.asarray(demos.meta["joint_columns"]), reference)
+    evaluation = {name: follow_clips(envs, act, episodes, seed, coverage_of) for name, act in runs.items()}
     return {"evaluation": evaluation | {"episodes": episodes, "seed": seed}}
