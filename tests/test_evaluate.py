@@ -63,6 +63,39 @@ def test_table_two_is_rebuilt_from_behavior_runs(tmp_path):
     assert "| bruce | dail | squat | 0.500 |" in markdown and "2 cores, 2026-11-24" in markdown
 
 
+def _clone(folder: Path, motions: dict) -> Path:
+    """A DAgger run's folder: each motion's policy, teacher and standing figures."""
+    folder.mkdir(parents=True)
+    settings = {"robot": "h1", "hands": "none", "motions": list(motions), "algo": "dagger", "seed": 0}
+    (folder / "run.json").write_text(json.dumps(settings))
+
+    def figures(falls: float, coverage: float, travel: float | None) -> dict:
+        return {"fall_rate": falls, "coverage_deg": coverage, "travel_ratio": travel}
+
+    by_motion = {
+        m: {"policy": figures(*f), "teacher": figures(0.0, 2.0, 0.8), "standing": figures(0.0, 20.0, 0.01)}
+        for m, f in motions.items()
+    }
+    evaluation = by_motion[next(iter(motions))] if len(motions) == 1 else {"by_motion": by_motion}
+    report = {**settings, "samples": 1000, "wall_clock_seconds": 1800.0, "machine": MACHINE, "evaluation": evaluation}
+    (folder / "report.json").write_text(json.dumps(report))
+    return folder
+
+
+def test_table_two_gives_a_clones_falls_coverage_and_travel_motion_by_motion(tmp_path):
+    walk = _clone(tmp_path / "h1_walk", {"walk": (0.05, 4.0, 0.82)})
+    library = _clone(tmp_path / "h1_library", {"walk": (0.1, 5.0, 0.7), "squat": (0.0, 3.0, None)})
+    assert main(["primitives", "--runs", str(walk), str(library), "--out", str(tmp_path / "out")]) == 0
+    rows = _rows(tmp_path / "out" / "table2.csv")
+    assert [(r["run"], r["motion"], r["fall rate"], r["coverage (deg)"], r["travel ratio"]) for r in rows] == [
+        ("h1_walk", "walk", "0.05", "4.0", "0.82"),
+        ("h1_library", "walk", "0.1", "5.0", "0.7"),
+        ("h1_library", "squat", "0.0", "3.0", ""),
+    ]
+    assert all(r["standing coverage (deg)"] == "20.0" and r["normalized return"] == "" for r in rows)
+    assert "| h1 | dagger | squat | - | - | - | 0.000 |" in (tmp_path / "out" / "table2.md").read_text()
+
+
 def test_table_three_counts_a_transfers_hours_and_the_ratio_to_scratch(tmp_path):
     skill = {"seconds": 7200.0, "algo": "ours"}
     udh = _skill(tmp_path / "udh_box_ours", "udh", "ours", 7200.0, 0.5)

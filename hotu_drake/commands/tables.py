@@ -8,7 +8,9 @@
 - `primitives`: Table II, one row per behavior run and motion: the
   normalised style return on that motion's frames, the fall rate, the
   nearest-reference distance and the coverage (degrees), next to the robot
-  standing, with each run's samples, wall-clock, machine and date.
+  standing, with each run's samples, wall-clock, machine and date; a
+  clone of the whole-body controller (`--algo dagger`), its falls,
+  coverage and travel against its clip's, motion by motion.
 - `skills`: Table III, one row per skill run (`train skill`, `train
   finetune`): success rate, normalised task return and wall-clock hours.
   A transfer's hours are its share of the UDH skill's training (the skill's
@@ -145,7 +147,8 @@ def _cell(value) -> str:
 
 
 def primitives_table(runs: list[Run]) -> tuple[list[str], list[list]]:
-    """Table II's header and rows (one per run and motion)."""
+    """Table II's header and rows (one per run and motion; a clone's, motion
+    by motion from its evaluation, with no judges' return)."""
     header = [
         "robot",
         "algo",
@@ -157,6 +160,7 @@ def primitives_table(runs: list[Run]) -> tuple[list[str], list[list]]:
         "distance (deg)",
         "coverage (deg)",
         "standing coverage (deg)",
+        "travel ratio",
         "samples",
         "wall-clock (h)",
         "run",
@@ -167,14 +171,30 @@ def primitives_table(runs: list[Run]) -> tuple[list[str], list[list]]:
         if run.settings.get("command") in ("skill", "finetune"):
             raise InputError(f"{run.path}: a skill run; Table II takes behavior runs (train pretrain)")
         evaluation = run.report.get("evaluation", {})
+        common = [
+            run.report.get("samples"),
+            round(run.report.get("wall_clock_seconds", 0.0) / 3600, 3),
+            run.name,
+            _machine(run),
+        ]
+        robot, algo = run.settings["robot"], run.settings["algo"]
+        if "teacher" in evaluation or "by_motion" in evaluation:  # a clone of the whole-body controller
+            by_motion = evaluation.get("by_motion") or {run.settings["motions"][0]: evaluation}
+            for motion, figures in by_motion.items():
+                policy, standing = figures["policy"], figures["standing"]
+                rows.append(
+                    [robot, algo, motion, None, None, None, policy["fall_rate"], None]
+                    + [policy.get("coverage_deg"), standing.get("coverage_deg"), policy.get("travel_ratio"), *common]
+                )
+            continue
         policy, standing = evaluation.get("policy"), evaluation.get("standing")
         if policy is None or standing is None:
             raise InputError(f"{run.path}/report.json: no policy and standing evaluation (not a behavior report)")
         for motion, figures in policy.get("motions", {}).items():
             rows.append(
                 [
-                    run.settings["robot"],
-                    run.settings["algo"],
+                    robot,
+                    algo,
                     motion,
                     figures.get("normalized_return"),
                     standing.get("motions", {}).get(motion, {}).get("normalized_return"),
@@ -183,10 +203,8 @@ def primitives_table(runs: list[Run]) -> tuple[list[str], list[list]]:
                     policy.get("joint_distance_deg", {}).get("all"),
                     policy.get("coverage_deg", {}).get("all"),
                     standing.get("coverage_deg", {}).get("all"),
-                    run.report.get("samples"),
-                    round(run.report.get("wall_clock_seconds", 0.0) / 3600, 3),
-                    run.name,
-                    _machine(run),
+                    None,
+                    *common,
                 ]
             )
     return header, rows
@@ -199,7 +217,9 @@ PRIMITIVE_NOTES = [
     "nearest policy frame (a robot that holds one pose of a clip is near it but covers little of it). Standing:",
     "the same robot holding its standing pose on the same episodes. From each run's report.json. The return is",
     "the run's own judges' (DAIL: the product of its part rewards; AMP: one whole-body reward), so it compares",
-    "within an algorithm; distance and coverage compare across algorithms and robots.",
+    "within an algorithm; distance and coverage compare across algorithms and robots. A clone of the whole-body",
+    "controller (dagger) has no judges: its rows give its falls, coverage and travel against its clip's",
+    "(travel ratio), each motion from its own episodes.",
 ]
 
 
