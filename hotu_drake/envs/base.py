@@ -151,10 +151,11 @@ class DiagramEnv(gym.Env):
         action for the state the robot is in (`teacher_action`). With
         `phase_observation`, the observation ends with where the episode is
         in its clip (`clip_phase`). With `loop` (every clip, or one flag
-        per clip), the clips repeat (the teacher's and the phase's; a walk's
-        reference goes on past its clip). A reference start begins at `reference_start_time` in its
-        clip (s; default anywhere), dropped from up to `drop_height` as a
-        default start is (evaluation episodes then differ). With
+        per clip), the clips repeat (the teacher's and the phase's; a
+        walk's reference goes on past its clip). A reference start begins
+        at `reference_start_time` in its clip (s; default anywhere),
+        dropped from up to `drop_height` as a default start is (evaluation
+        episodes then differ). With
         `reference_observation` (and `teacher`), the observation ends with
         where the teacher's reference is against the robot
         (`reference_features`); with `pose_observation`, with the clip's
