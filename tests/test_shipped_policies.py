@@ -29,9 +29,9 @@ def test_a_shipped_policy_loads_and_keeps_its_robot_up(name):
 
 def test_the_shipped_walk_follows_its_clip_without_the_teacher():
     """`learned_h1_walk` (a clone of the whole-body controller, asked for
-    the walk by name) walks on its own: 4 s from the walk's first frame,
+    the walk by name) walks on its own: 4 s from the standing pose,
     upright, covering more than half the walk's travel (measured over the
-    scenario's 10 s: 4.4 m of the walk's 5.1 m, RESULTS.md section 11)."""
+    scenario's 10 s: 4.2 m of the walk's 5.1 m, RESULTS.md section 12)."""
     figures = run(load_scenario("learned_h1_walk"), 4.0)
     assert not figures["fell"] and figures["reference_travel_m"] > 1.5
     assert figures["root_travel_m"] > 0.5 * figures["reference_travel_m"], figures
