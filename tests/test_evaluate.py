@@ -146,6 +146,21 @@ def test_the_perturbation_test_knocks_over_a_learned_controller(tmp_path):
     assert (tmp_path / "out" / "perturbation.png").is_file()
 
 
+def test_the_perturbation_test_hits_a_clone_while_it_walks(tmp_path):
+    """A clone of the whole-body controller is hit performing its walk from
+    standing, at its own 60 Hz: it walks on without a cube and falls under a
+    heavy one."""
+    run = tmp_path / "h1_walk_dagger"
+    run.mkdir()
+    shutil.copy(POLICIES / "h1_walk_dagger.pt", run / "policy.pt")
+    (run / "run.json").write_text(json.dumps({"robot": "h1", "hands": "none", "algo": "dagger", "motions": ["walk"]}))
+    argv = ["perturbation", "--runs", str(run), "--momenta", "0,150", "--directions", "1", "--no-html"]
+    assert main([*argv, "--out", str(tmp_path / "out")]) == 0
+    rows = _rows(tmp_path / "out" / "perturbation.csv")
+    # From the front, walking into it, the shipped clone stays up at 40 kg m/s and falls at 60 (measured).
+    assert [(float(r["momentum"]), int(r["falls"])) for r in rows] == [(0.0, 0), (150.0, 1)]
+
+
 @pytest.mark.parametrize(
     "damage, message",
     [

@@ -20,7 +20,8 @@
 - `ablation`: each run's combined style reward against samples, one panel
   per robot, the decomposed (DAIL) runs solid, the whole-body ones dashed.
 - `perturbation`: the stability test with learned policies: each run's
-  controller standing in its diagram while a cube of increasing momentum is
+  controller standing in its diagram (a clone of the whole-body
+  controller walking its walk) while a cube of increasing momentum is
   thrown at its torso from several directions; the fall rate against the
   momentum (CSV, PNG), and a Meshcat replay of one hit per robot.
 
@@ -359,20 +360,32 @@ def throw(momentum: float, direction: float, height: float):
 
 
 def perturbation_scenario(run: Run, momentum: float, direction: float, latent_seed: int):
-    """The run's controller standing (latents from its prior) with one cube thrown at it (none at 0)."""
+    """The run's controller from standing with one cube thrown at it (none
+    at 0): a style policy standing (latents from its prior); a clone of the
+    whole-body controller (`dagger`) performing its walk (else its first
+    motion), at the rate it was trained at, as the teacher is hit walking
+    (`bench pushes`)."""
     from hotu_drake import embodiment as embodiments
+    from hotu_drake.learning.checkpoint import read_checkpoint
     from hotu_drake.scenario import InitialCondition, PolicyCheckpoint, Scenario
 
     robot, hands = run.settings["robot"], run.settings["hands"]
     emb = embodiments.load(robot, hands)
     height = 1.4 * emb.standing_pelvis_height  # about the chest: the aim itself is at the torso body at launch
     launches = [throw(momentum, direction, height)] if momentum > 0 else []
-    policy = run.path / "policy.pt"
+    policy = str((run.path / "policy.pt").resolve())
+    driver = PolicyCheckpoint(policy, latents="prior", latent_seed=latent_seed)
+    rate = 30.0
+    if run.settings.get("algo") == "dagger":
+        motions = [str(m) for m in run.settings["motions"]]
+        driver = PolicyCheckpoint(policy, latents="walk" if "walk" in motions else motions[0])
+        rate = float(read_checkpoint(policy)["control_rate"])
     return Scenario(
         embodiment=robot,
         hands=hands,
+        control_rate=rate,
         initial=InitialCondition(drop_height=0.0),
-        driver=PolicyCheckpoint(str(policy.resolve()), latents="prior", latent_seed=latent_seed),
+        driver=driver,
         perturbations=launches,
         duration=PERTURBATION_SECONDS,
     )
