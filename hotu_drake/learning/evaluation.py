@@ -24,9 +24,10 @@ standing pose: the baseline a learned motion must beat.
 
 A policy cloned from the whole-body controller (`dagger`) is judged by
 what it does instead of by judges: `follow_clips` runs it from each
-clip's start and measures its falls and the pelvis' travel against the
-reference's, and `clone_report` sets it beside the teacher itself and
-the robot standing.
+clip's start (or from the standing pose, `environment.standing_follow`)
+and measures its falls, the pelvis' travel against the reference's and
+its coverage of the clip's frames, and `clone_report` sets it beside
+the teacher itself and the robot standing.
 """
 
 from __future__ import annotations
@@ -411,8 +412,8 @@ def follow_clips(
 def clone_report(agent, envs, standing: np.ndarray, episodes: int, seed: int, motions: list[str] | None = None) -> dict:
     """A teacher-labelled run's evaluation: `follow_clips` of the policy's
     mean, of the teacher itself and of the robot standing, on the same
-    seeded episodes (each clip from its start), with the coverage of the
-    frames of `motions` (default: all of the agent's demonstrations)."""
+    seeded episodes (each clip from its start, or from the standing pose),
+    with the coverage of the frames of `motions` (default: all of the agent's demonstrations)."""
     stand = standing_policy(standing)
     runs = {
         "policy": lambda obs, info: agent.act(obs, deterministic=True)[0],
