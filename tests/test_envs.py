@@ -452,3 +452,31 @@ def test_a_standing_start_follows_its_clip_placed_under_the_robot():
     assert plain.reset(seed=1, options={"clip": 0})[1]["init"] == "reference"
     env.close()
     plain.close()
+
+
+def test_clips_are_drawn_by_their_falls_when_asked():
+    """`clip_sampling="falls"`: each environment counts the episodes begun
+    on each clip and those that fell, and draws half its clips evenly and
+    half by their smoothed fall rates (`clip_weights`)."""
+    from hotu_drake.envs.base import clip_weights
+
+    np.testing.assert_allclose(clip_weights(np.zeros(3), np.zeros(3)), 1 / 3)  # nothing tried: evenly
+    weights = clip_weights(np.array([9.0, 0.0]), np.array([10.0, 10.0]))
+    np.testing.assert_allclose(weights.sum(), 1.0)
+    assert weights[0] > 2 * weights[1] and weights[1] > 0.25, weights  # the performed clip keeps a share
+    options = {"robot": "h1", "hands": "none", "motions": ["walk", "squat"], "reference_init_probability": 1.0}
+    env = gym.make("hotu_drake/Imitation-v0", clip_sampling="falls", **options)
+    inner = env.unwrapped
+    env.reset(seed=0, options={"clip": 1, "time": 0.0})
+    limp = -np.ones(env.action_space.shape, dtype=np.float32)
+    for _ in range(90):
+        if env.step(limp)[2]:
+            break
+    np.testing.assert_array_equal(inner.clip_episodes, [0, 1])
+    np.testing.assert_array_equal(inner.clip_falls, [0, 1])  # the squat's episode fell
+    inner.clip_episodes[:], inner.clip_falls[:] = [50, 50], [0, 50]
+    drawn = [inner._draw_clip() for _ in range(400)]
+    assert 0.6 < np.mean(drawn) < 0.9, np.mean(drawn)  # the squat about 3/4 of the time (0.74)
+    env.close()
+    with pytest.raises(InputError, match="clip_sampling"):
+        gym.make("hotu_drake/Imitation-v0", clip_sampling="hardest", **options)

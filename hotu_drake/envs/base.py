@@ -113,6 +113,18 @@ class EnvTimings:
         return {k: round(1000 * v / n, 4) for k, v in parts.items()}
 
 
+CLIP_SAMPLINGS = ("uniform", "falls")
+
+
+def clip_weights(falls: np.ndarray, episodes: np.ndarray) -> np.ndarray:
+    """How often to draw each clip by its episodes' falls: half evenly, half
+    in proportion to its fall rate smoothed as (falls + 1) / (episodes + 2)
+    (a clip not yet tried counts as falling half the time), so the clips a
+    policy falls in get more episodes and those it performs keep theirs."""
+    rates = (np.asarray(falls, float) + 1.0) / (np.asarray(episodes, float) + 2.0)
+    return 0.5 / len(rates) + 0.5 * rates / rates.sum()
+
+
 def _per_clip(loop: bool | Sequence[bool], clips: int, where: str) -> tuple[bool, ...]:
     """`loop` as one flag per clip (one flag for all, or one each)."""
     if isinstance(loop, bool | np.bool_):
@@ -144,6 +156,7 @@ class DiagramEnv(gym.Env):
         reference_observation: bool = False,
         pose_observation: bool = False,
         standing_follow: bool = False,
+        clip_sampling: str = "uniform",
     ):
         """`scenario` as `environment_scenario` makes it; `embodiment`
         overrides its robot (e.g. a resized UDH). With `teacher`, every
@@ -163,8 +176,10 @@ class DiagramEnv(gym.Env):
         `standing_follow`, a default start (the standing pose, dropped)
         follows one of the clips from `reference_start_time` (default 0),
         the clip placed under the robot as `MotionReference` places it: the
-        start a deployed clip-following policy gets. Bad keywords raise
-        `InputError`."""
+        start a deployed clip-following policy gets. `clip_sampling`: how
+        an episode's clip is drawn, evenly ("uniform") or by how often this
+        environment's episodes fell in each ("falls", `clip_weights`). Bad
+        keywords raise `InputError`."""
         where = type(self).__name__
         amp_history = check_number(amp_history, "amp_history", where, low=1, high=MAX_AMP_HISTORY, integer=True)
         reference_init_probability = check_number(
@@ -177,6 +192,7 @@ class DiagramEnv(gym.Env):
         self.reference_observation = check_bool(reference_observation, "reference_observation", where)
         self.pose_observation = check_bool(pose_observation, "pose_observation", where)
         self.standing_follow = check_bool(standing_follow, "standing_follow", where)
+        self.clip_sampling = check_choice(clip_sampling, "clip_sampling", CLIP_SAMPLINGS, where)
         if self.reference_observation and not self.teacher:
             raise InputError("the reference observation is the teacher's reference: give teacher=True", where)
         if reference_start_time is not None:
@@ -202,6 +218,8 @@ class DiagramEnv(gym.Env):
         self.scenario = scenario
         self.clips = list(clips or [])
         self.loops = _per_clip(loop, len(self.clips), where)
+        self.clip_episodes = np.zeros(len(self.clips))  # episodes begun on each clip, and those that fell
+        self.clip_falls = np.zeros(len(self.clips))
         self.control_period = 1.0 / scenario.control_rate
         self.amp_history = amp_history
         self.reference_init_probability = reference_init_probability if self.clips else 0.0
@@ -276,7 +294,7 @@ class DiagramEnv(gym.Env):
         history = None
         self._episode_clip, self._episode_start, self._episode_frame = None, 0.0, RigidTransform()
         if kind == "reference":
-            index = options.get("clip", int(self.np_random.integers(len(self.clips))))
+            index = options.get("clip", self._draw_clip())
             clip = self.clips[index]
             start, drop = options.get("time", self.reference_start_time), 0.0
             if start is None:
@@ -293,12 +311,14 @@ class DiagramEnv(gym.Env):
         else:
             self._set_default_state(float(self.np_random.uniform(0.0, self.drop_height)))
             if self.standing_follow and self.clips:
-                index = options.get("clip", int(self.np_random.integers(len(self.clips))))
+                index = options.get("clip", self._draw_clip())
                 start = min(float(options.get("time", self.reference_start_time or 0.0)), self.clips[index].duration)
                 root = self.sim.plant.EvalBodyPoseInWorld(self._plant_context, self._root)
                 self._episode_clip, self._episode_start = index, start
                 self._episode_frame = placed_under(root, alignment(self._playbacks[index], start))
         self.init_kind = kind
+        if self._episode_clip is not None:
+            self.clip_episodes[self._episode_clip] += 1
         if self.teacher:
             self._teacher().reset()
         self._place_objects()
@@ -311,6 +331,12 @@ class DiagramEnv(gym.Env):
         self._history.append(amp)
         self._last = (self._observe(), self._info(terminated=False))
         return self._last
+
+    def _draw_clip(self) -> int:
+        """An episode's clip: evenly, or by `clip_weights` of this environment's falls."""
+        if self.clip_sampling == "uniform":
+            return int(self.np_random.integers(len(self.clips)))
+        return int(self.np_random.choice(len(self.clips), p=clip_weights(self.clip_falls, self.clip_episodes)))
 
     def _check_reset_options(self, options: dict) -> dict:
         """`init` ('reference' or 'default'; a `clip` or `time` alone means
@@ -374,6 +400,8 @@ class DiagramEnv(gym.Env):
                 raise FloatingPointError("the state diverged (non-finite observation)")
             self._history.append(amp)
             terminated = self._fell()
+            if terminated and self._episode_clip is not None:
+                self.clip_falls[self._episode_clip] += 1
             info = self._info(terminated)
             reward = self._task_reward(info)
         except (RuntimeError, FloatingPointError) as error:  # Drake reports solver failures as RuntimeError

@@ -81,6 +81,7 @@ def imitation_run(settings: dict, config) -> RunEnvironments:
             "reference_observation": env.reference_observation,
             "pose_observation": env.pose_observation,
             "standing_follow": env.standing_follow,
+            "clip_sampling": "uniform" if evaluation else env.clip_sampling,
             "max_episode_steps": round(EPISODE_SECONDS * env.control_rate),
         }
         if evaluation and env.teacher and not env.standing_follow:  # each clip from its start

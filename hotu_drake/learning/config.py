@@ -199,6 +199,9 @@ class EnvironmentConfig:
     # A standing start (the share 1 - reference_init_probability) follows one of the clips from its start,
     # placed under the robot: a deployed clip-following policy's start. The run's evaluation then starts there.
     standing_follow: bool = False
+    # How a training episode's clip is drawn: "uniform", or "falls" (half evenly, half by each clip's smoothed
+    # fall rate in that worker's environment, `envs.base.clip_weights`). Its effect is not yet measured.
+    clip_sampling: str = "uniform"
     termination_height: float = 0.5
     amp_history: int = 10
     # End an episode after `style_patience` steps under this combined style reward; 0: off (the
@@ -260,6 +263,7 @@ class TrainConfig:
         check_number(self.warm_start.observation_noise, "warm_start.observation_noise", where, low=0.0, high=10.0)
         env = self.environment
         check_number(env.amp_history, "environment.amp_history", where, low=1, high=300, integer=True)
+        check_choice(env.clip_sampling, "environment.clip_sampling", ("uniform", "falls"), where)
         check_number(env.control_rate, "environment.control_rate", where, low=1.0, high=1000.0)
         t = self.teacher
         check_number(t.teacher_iterations, "teacher.teacher_iterations", where, low=0, high=10**6, integer=True)
