@@ -34,8 +34,7 @@ from hotu_drake import embodiment as embodiments
 from hotu_drake.envs.base import DiagramEnv, environment_scenario
 from hotu_drake.envs.tracking import CLIP_SCALES, CLIP_WEIGHTS, ClipTracking, tracking_terms
 from hotu_drake.errors import check_bool
-from hotu_drake.motion.library import MOTIONS
-from hotu_drake.retarget.references import looped_motions, reference_clips
+from hotu_drake.retarget.references import looped_motions, motion_list, reference_clips
 from hotu_drake.scenario import Scenario
 
 
@@ -57,8 +56,7 @@ class ImitationEnv(DiagramEnv):
         emb = embodiments.load(scenario.embodiment, scenario.hands)
         where = type(self).__name__
         clips = reference_clips(emb, motions)
-        names = MOTIONS if motions is None else [motions] if isinstance(motions, str) else motions
-        loops = looped_motions(loop, names, f"{where}: loop")
+        loops = looped_motions(loop, motion_list(motions), f"{where}: loop")
         super().__init__(scenario, clips, emb, loop=loops, **options)
         self.tracking_reward = check_bool(tracking_reward, "tracking_reward", where)
         self._tracking = ClipTracking(self.sim.plant, self.sim.model, emb, self._observer, self.clips, self.loops)

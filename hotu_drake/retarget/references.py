@@ -70,15 +70,21 @@ def reference_clip(motion: str, embodiment: Embodiment, base_dir: str | Path | N
     return clip
 
 
-def reference_clips(embodiment: Embodiment, motions: Iterable[str] | str | None = None) -> list[MotionClip]:
-    """The clips for `motions` (default: the whole generated library)."""
+def motion_list(motions: Iterable[str] | str | None = None) -> list[str]:
+    """`motions` as a list of names and clip paths (one given alone, or the
+    whole generated library for None); `InputError` for anything else."""
     if isinstance(motions, str | Path):
-        motions = [str(motions)]
-    elif motions is not None and (
-        not isinstance(motions, list | tuple) or not all(isinstance(m, str | Path) for m in motions)
-    ):
+        return [str(motions)]
+    if motions is None:
+        return list(MOTIONS)
+    if not isinstance(motions, list | tuple) or not all(isinstance(m, str | Path) for m in motions):
         raise InputError(f"{motions!r}: give motion names or .npz clip paths", field="motions")
-    clips = [reference_clip(motion, embodiment) for motion in (MOTIONS if motions is None else motions)]
+    return [str(m) for m in motions]
+
+
+def reference_clips(embodiment: Embodiment, motions: Iterable[str] | str | None = None) -> list[MotionClip]:
+    """The clips for `motions` (`motion_list`: default the whole generated library)."""
+    clips = [reference_clip(motion, embodiment) for motion in motion_list(motions)]
     if not clips:
         raise InputError("motions: give at least one motion")
     return clips
