@@ -363,8 +363,8 @@ def perturbation_scenario(run: Run, momentum: float, direction: float, latent_se
     """The run's controller from standing with one cube thrown at it (none
     at 0): a style policy standing (latents from its prior); a clone of the
     whole-body controller (`dagger`) performing its walk (else its first
-    motion), at the rate it was trained at, as the teacher is hit walking
-    (`bench pushes`)."""
+    motion), as the teacher is hit walking (`bench pushes`); each at the
+    rate it was trained at."""
     from hotu_drake import embodiment as embodiments
     from hotu_drake.learning.checkpoint import read_checkpoint
     from hotu_drake.scenario import InitialCondition, PolicyCheckpoint, Scenario
@@ -375,15 +375,13 @@ def perturbation_scenario(run: Run, momentum: float, direction: float, latent_se
     launches = [throw(momentum, direction, height)] if momentum > 0 else []
     policy = str((run.path / "policy.pt").resolve())
     driver = PolicyCheckpoint(policy, latents="prior", latent_seed=latent_seed)
-    rate = 30.0
     if run.settings.get("algo") == "dagger":
         motions = [str(m) for m in run.settings["motions"]]
         driver = PolicyCheckpoint(policy, latents="walk" if "walk" in motions else motions[0])
-        rate = float(read_checkpoint(policy)["control_rate"])
     return Scenario(
         embodiment=robot,
         hands=hands,
-        control_rate=rate,
+        control_rate=float(read_checkpoint(policy)["control_rate"]),
         initial=InitialCondition(drop_height=0.0),
         driver=driver,
         perturbations=launches,
