@@ -133,14 +133,19 @@ def test_the_ablation_figure_is_drawn_from_the_run_logs(tmp_path):
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_the_perturbation_test_knocks_over_a_learned_controller(tmp_path):
-    run = tmp_path / "h1_wave_dail"
+def _perturbed(tmp_path: Path, policy: str, algo: str, motion: str, momenta: str) -> list[dict]:
+    """`evaluate perturbation` from one direction on a run folder holding the shipped `policy`."""
+    run = tmp_path / Path(policy).stem
     run.mkdir()
-    shutil.copy(POLICIES / "h1_wave_dail.pt", run / "policy.pt")
-    (run / "run.json").write_text(json.dumps({"robot": "h1", "hands": "none", "algo": "dail", "motions": ["wave"]}))
-    argv = ["perturbation", "--runs", str(run), "--momenta", "0,40", "--directions", "1", "--no-html"]
+    shutil.copy(POLICIES / policy, run / "policy.pt")
+    (run / "run.json").write_text(json.dumps({"robot": "h1", "hands": "none", "algo": algo, "motions": [motion]}))
+    argv = ["perturbation", "--runs", str(run), "--momenta", momenta, "--directions", "1", "--no-html"]
     assert main([*argv, "--out", str(tmp_path / "out")]) == 0
-    rows = _rows(tmp_path / "out" / "perturbation.csv")
+    return _rows(tmp_path / "out" / "perturbation.csv")
+
+
+def test_the_perturbation_test_knocks_over_a_learned_controller(tmp_path):
+    rows = _perturbed(tmp_path, "h1_wave_dail.pt", "dail", "wave", "0,40")
     # From this direction the policy stands up to 12 kg m/s and falls from 15 (measured): 40 is far past it.
     assert [(float(r["momentum"]), int(r["falls"])) for r in rows] == [(0.0, 0), (40.0, 1)]
     assert (tmp_path / "out" / "perturbation.png").is_file()
@@ -150,13 +155,7 @@ def test_the_perturbation_test_hits_a_clone_while_it_walks(tmp_path):
     """A clone of the whole-body controller is hit performing its walk from
     standing, at its own 60 Hz: it walks on without a cube and falls under a
     heavy one."""
-    run = tmp_path / "h1_walk_dagger"
-    run.mkdir()
-    shutil.copy(POLICIES / "h1_walk_dagger.pt", run / "policy.pt")
-    (run / "run.json").write_text(json.dumps({"robot": "h1", "hands": "none", "algo": "dagger", "motions": ["walk"]}))
-    argv = ["perturbation", "--runs", str(run), "--momenta", "0,150", "--directions", "1", "--no-html"]
-    assert main([*argv, "--out", str(tmp_path / "out")]) == 0
-    rows = _rows(tmp_path / "out" / "perturbation.csv")
+    rows = _perturbed(tmp_path, "h1_walk_dagger.pt", "dagger", "walk", "0,150")
     # From the front, walking into it, the shipped clone stays up at 40 kg m/s and falls at 60 (measured).
     assert [(float(r["momentum"]), int(r["falls"])) for r in rows] == [(0.0, 0), (150.0, 1)]
 
