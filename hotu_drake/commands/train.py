@@ -242,10 +242,13 @@ def _clone_evaluation(restored: RestoredRun, agent: DAggerAgent, envs, workers: 
         return clone_report(agent, envs, standing, episodes, seed)
     envs.close()  # the agent acts without them; each motion gets its own workers
     by_motion = {}
-    for motion in motions:
+    # The demonstrations name each clip by its source (`envs.clip_arrays.motion_names`), in the motions' order:
+    # a `.npz` motion's name there is not its path.
+    for motion, demonstrated in zip(motions, agent.demos.motions):
         motion_envs = restored.run.vector_env(workers, evaluation=True, motions=[motion])
         try:
-            by_motion[motion] = clone_report(agent, motion_envs, standing, episodes, seed, [motion])["evaluation"]
+            report = clone_report(agent, motion_envs, standing, episodes, seed, [demonstrated])
+            by_motion[motion] = report["evaluation"]
         finally:
             motion_envs.close()
     return {"evaluation": {"by_motion": by_motion, "episodes": episodes, "seed": seed}}
