@@ -1,4 +1,4 @@
-"""Task objects of the method: box, drill, table and a target marker.
+"""Task objects of the method (box, drill, table, a target marker) and the grasp set's objects.
 
 The one home of their shapes and sizes: `OBJECT_MODELS` describes each
 object (mass, inertia, primitive shapes); `models/objects/*.sdf` are
@@ -19,7 +19,7 @@ from pydrake.multibody.plant import MultibodyPlant
 
 from hotu_drake.embodiment.formats.common import fmt, vec
 from hotu_drake.embodiment.formats.sdf import geometry_sdf
-from hotu_drake.embodiment.spec import Geometry, box, cylinder
+from hotu_drake.embodiment.spec import Geometry, box, cylinder, sphere
 from hotu_drake.errors import InputError
 from hotu_drake.resources import models_dir
 
@@ -109,6 +109,54 @@ OBJECT_MODELS: dict[str, ObjectModel] = {
         (Shape("body", box((BOX_SIZE,) * 3), (0.1, 0.8, 0.2, 0.3), collision=False),),
     ),
 }
+
+
+def _solid(
+    name: str, like: str, mass: float, geometry: Geometry, color: tuple[float, float, float, float]
+) -> ObjectModel:
+    """A one-shape object of uniform density: its inertia from its shape. Pose = the shape's centre."""
+    if geometry.shape == "box":
+        a, b, c = geometry.size
+        inertia = (mass * (b * b + c * c) / 12, mass * (a * a + c * c) / 12, mass * (a * a + b * b) / 12)
+    elif geometry.shape == "cylinder":
+        r, h = geometry.size
+        side = mass * (3 * r * r + h * h) / 12
+        inertia = (side, side, mass * r * r / 2)
+    else:
+        inertia = (0.4 * mass * geometry.size[0] ** 2,) * 3
+    return ObjectModel(
+        name,
+        f"About YCB's {like} (size and mass approximate). Pose = centre.",
+        mass,
+        inertia,
+        (Shape("body", geometry, color),),
+    )
+
+
+# The grasp set's objects (`motion.library.grasps`): boxes, cans and balls at the sizes and masses of common
+# YCB items (approximate), each standing on its largest end; the drill is the task's.
+_RED, _BLUE, _YELLOW, _GREEN = (
+    (0.75, 0.15, 0.1, 1.0),
+    (0.2, 0.35, 0.75, 1.0),
+    (0.95, 0.8, 0.2, 1.0),
+    (0.3, 0.65, 0.2, 1.0),
+)
+GRASP_OBJECT_MODELS: dict[str, ObjectModel] = {
+    model.name: model
+    for model in (
+        _solid("sugar_box", "004 sugar box", 0.51, box((0.038, 0.089, 0.175)), _YELLOW),
+        _solid("gelatin_box", "009 gelatin box", 0.10, box((0.028, 0.085, 0.073)), _RED),
+        _solid("potted_meat_can", "010 potted meat can", 0.37, box((0.050, 0.097, 0.082)), _BLUE),
+        _solid("mustard_bottle", "006 mustard bottle", 0.60, box((0.058, 0.095, 0.190)), _YELLOW),
+        _solid("soup_can", "005 tomato soup can", 0.35, cylinder(0.0335, 0.102, (0.0, 0.0, 0.0), _UP), _RED),
+        _solid("tennis_ball", "056 tennis ball", 0.06, sphere(0.0335), _GREEN),
+        _solid("baseball", "055 baseball", 0.15, sphere(0.037), (0.95, 0.95, 0.9, 1.0)),
+        _solid("orange", "017 orange", 0.14, sphere(0.036), (0.95, 0.55, 0.1, 1.0)),
+        _solid("softball", "054 softball", 0.19, sphere(0.048), _YELLOW),
+    )
+}
+OBJECT_MODELS |= GRASP_OBJECT_MODELS
+GRASP_OBJECTS: tuple[str, ...] = (*GRASP_OBJECT_MODELS, "drill")
 OBJECTS: tuple[str, ...] = tuple(OBJECT_MODELS)
 TABLE_TOP = OBJECT_MODELS["table"].shape("top").top  # m above the floor
 DRILL_BASE = -OBJECT_MODELS["drill"].shape("battery").bottom  # m from the grip centre down to the battery's bottom

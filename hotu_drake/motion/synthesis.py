@@ -417,6 +417,9 @@ class Plan:
     # A foot is down on every frame (a walk, not a run or a jump): a foot pushing off stays in contact
     # until the other is down (`generate`'s contacts; `planning.stepping`, which every walk plans with, sets it).
     grounded: bool = False
+    # The centre of mass kept over the middle of the feet (`generate`): the pelvis moved back as the upper body
+    # leans forward, as a person bending over a table pushes the hips back (a standing motion's plan).
+    centred: bool = False
 
     @property
     def num_frames(self) -> int:

@@ -10,12 +10,13 @@ import numpy as np
 
 from hotu_drake import embodiment
 from hotu_drake.embodiment import Embodiment
-from hotu_drake.embodiment.kinematics import batch_link_poses
+from hotu_drake.embodiment.kinematics import batch_link_poses, mass_table
 from hotu_drake.embodiment.spec import SIDES
 from hotu_drake.errors import InputError, check_number
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.human import human_clip
 from hotu_drake.motion.library.gestures import boxing, finger_motions, handshake, kungfu, slap, thumbs_up, wave
+from hotu_drake.motion.library.grasps import hand_grasp
 from hotu_drake.motion.library.locomotion import jump, leg_stretch, squat, walk
 from hotu_drake.motion.library.object_tasks import box_carry, box_carry_task, drill_grasp, drill_grasp_task
 from hotu_drake.motion.library.planning import (
@@ -48,6 +49,8 @@ MOTIONS: tuple[str, ...] = (
     # A task's demonstrations, one per seed (`box_carry_task@7`): drawn from the task environment's ranges.
     "box_carry_task",
     "drill_grasp_task",
+    # The grasp set (`grasps`), one grasp per seed (`hand_grasp@3`): hand-only data for the hand group.
+    "hand_grasp",
 )
 # Nominal durations (s); `duration=` stretches or shortens a motion.
 DURATIONS: dict[str, float] = {
@@ -75,6 +78,7 @@ DURATIONS: dict[str, float] = {
     "start_stop": 5.2,
     "box_carry_task": 11.0,
     "drill_grasp_task": 4.2,
+    "hand_grasp": 6.0,
 }
 CONTACT_HEIGHT = 0.01  # m: a sole this close to the floor ...
 CONTACT_SPEED = 0.1  # m/s: ... and moving this slowly is in contact
@@ -102,6 +106,7 @@ _PLANNERS: dict[str, Callable[[Scene], Plan]] = {
     **VOCABULARY,
     "box_carry_task": box_carry_task,
     "drill_grasp_task": drill_grasp_task,
+    "hand_grasp": hand_grasp,
 }
 
 
@@ -132,8 +137,35 @@ def _grounded(left: np.ndarray, right: np.ndarray) -> dict[str, np.ndarray]:
     return {"left_foot": left, "right_foot": right}
 
 
+CENTRING_PASSES = 4  # `_centred`: each pass leaves the share of the error the legs carry (about a third)
+UPPER_BODY_SHARE = 0.65  # about the share of the UDH's mass that moves with its pelvis when the feet stay put
+
+
+def _centre_of_mass(udh: Embodiment, q: np.ndarray, plan: Plan) -> np.ndarray:
+    """The UDH's centre of mass (T, 3) along a plan realised as `q`."""
+    poses = batch_link_poses(udh.spec, udh.joint_names, q, plan.pelvis_rot, plan.pelvis)
+    total, moment = 0.0, np.zeros((len(q), 3))
+    for link, mass, local in mass_table(udh.spec):
+        rot, pos = poses[link]
+        moment += mass * (pos + rot @ local)
+        total += mass
+    return moment / total
+
+
+def _centred(udh: Embodiment, body: Body, plan: Plan) -> np.ndarray:
+    """`plan` realised with its pelvis moved (in x and y) until the centre of
+    mass sits over the middle of the two soles on every frame; the hands'
+    targets stay where they are in the world (the arms reach further)."""
+    for _ in range(CENTRING_PASSES):
+        q = realize(body, plan)
+        soles = [pos + rot @ body.foot_points.mean(axis=0) for pos, rot in plan.feet.values()]
+        error = _centre_of_mass(udh, q, plan)[:, :2] - np.mean(soles, axis=0)[:, :2]
+        plan.pelvis[:, :2] -= error / UPPER_BODY_SHARE
+    return realize(body, plan)
+
+
 def _to_clip(udh: Embodiment, body: Body, plan: Plan, name: str) -> MotionClip:
-    q = realize(body, plan)
+    q = _centred(udh, body, plan) if plan.centred else realize(body, plan)
     fps = plan.fps
     quat = matrix_to_quat(plan.pelvis_rot)
     poses = batch_link_poses(udh.spec, udh.joint_names, q, plan.pelvis_rot, plan.pelvis)
