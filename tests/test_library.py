@@ -65,6 +65,7 @@ def test_vocabulary():
         "kungfu", "wave", "slap", "thumbs_up", "box_carry", "drill_grasp",
         "walk_fast", "walk_turn_left", "walk_turn_right", "turn_in_place_left", "turn_in_place_right",
         "sidestep_left", "sidestep_right", "walk_backward", "start_stop", "box_carry_task", "drill_grasp_task",
+        "hand_grasp",
     )  # fmt: skip
     with pytest.raises(ValueError, match="unknown motion"):
         generate_udh("moonwalk")
@@ -285,3 +286,64 @@ def test_the_task_environment_draws_its_tasks_as_the_library_does(task):
         np.testing.assert_allclose(target, expected.target)
     finally:
         env.close()
+
+
+def test_the_grasp_set_draws_every_object_of_it():
+    from hotu_drake.motion.library.grasps import GRASP_RANGES, sample_grasp
+    from hotu_drake.objects import GRASP_OBJECTS, OBJECT_MODELS, TABLE_TOP, resting_height
+
+    tasks = [sample_grasp(np.random.default_rng(seed)) for seed in range(300)]
+    assert {task.kind for task in tasks} == set(GRASP_OBJECTS)
+    assert all(kind in OBJECT_MODELS for kind in GRASP_OBJECTS)
+    for task in tasks:  # standing on the table, within the set's ranges
+        assert task.position[2] == pytest.approx(TABLE_TOP + resting_height(task.kind), abs=0.005)
+        assert GRASP_RANGES["distance"][0] <= task.position[0] <= GRASP_RANGES["distance"][1]
+        assert GRASP_RANGES["lift"][0] <= task.lift <= GRASP_RANGES["lift"][1]
+
+
+# One seed per way of taking an object: from the side (a tall box), from above (a ball, a short box), the drill.
+@pytest.mark.parametrize("seed", [23, 4, 11, 15])
+def test_a_grasp_set_clip_holds_its_object_in_its_closed_hand(udh, seed):
+    """`hand_grasp@<seed>`: the hand landmark on the grasp point from the
+    fingers' closing to the lowering, the object lifted by its task's lift
+    meanwhile and put back at its start, the fingers open before and after
+    and closed while it is held, and the body's centre of mass over the feet
+    throughout (the hips back as it leans over the table)."""
+    from hotu_drake.embodiment.kinematics import mass_table
+    from hotu_drake.motion.library import grasps
+    from hotu_drake.motion.synthesis import Body
+    from hotu_drake.rotations import rot_z
+
+    task = grasps.sample_grasp(np.random.default_rng(seed))
+    clip = generate_udh(f"hand_grasp@{seed}", udh=udh)
+    fps = clip.fps
+    obj = clip.object_pose(task.kind)[:, :3]
+    np.testing.assert_allclose(obj[0], task.position, atol=1e-9)
+    np.testing.assert_allclose(obj[-1], task.position, atol=1e-9)
+    held = np.arange(int(grasps.HOLD * fps), int(grasps.LOWER * fps))
+    np.testing.assert_allclose(obj[held, 2] - task.position[2], task.lift, atol=1e-3)
+    contact = clip.contact(f"right_hand_{task.kind}")
+    assert contact[held].all() and not contact[0] and not contact[-1]
+
+    poses = batch_link_poses(
+        udh.spec, clip.joint_names, clip.joint_positions, quat_to_matrix(clip.root_quaternion), clip.root_position
+    )
+    rot, pos = poses[udh.key_bodies["right_hand"]]
+    landmark = pos + rot @ Body.of(udh).hand_offset["right"]
+    shape = grasps.grasp_shape(task.kind)
+    on_object = obj + rot_z(np.full(len(obj), task.yaw)) @ shape.landmark
+    closed = np.arange(int(grasps.LIFT * fps), int(grasps.LOWER * fps))
+    assert np.linalg.norm(landmark[closed] - on_object[closed], axis=1).max() < 0.003
+    index = clip.joint("right_index_2")
+    assert index[0] < 0.1 and index[-1] < 0.1 and index[closed].min() > 0.5
+
+    total, moment = 0.0, np.zeros((clip.num_frames, 3))
+    for link, mass, local in mass_table(udh.spec):
+        link_rot, link_pos = poses[link]
+        moment, total = moment + mass * (link_pos + link_rot @ local), total + mass
+    feet = np.mean([poses[udh.key_bodies[f"{side}_foot"]][1] for side in SIDES], axis=0)
+    lean = np.abs(clip.root_position[:, 0] - clip.root_position[0, 0]).max()
+    assert lean > 0.05  # the hips went back ...
+    drift = (moment / total)[:, :2] - (moment / total)[0, :2]
+    assert np.abs(drift).max() < 0.01  # ... and the centre of mass stayed where it stood
+    assert np.abs(feet[:, :2] - feet[0, :2]).max() < 1e-6  # on feet that did not move

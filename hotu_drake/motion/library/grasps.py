@@ -48,7 +48,7 @@ SIDE_GRASP_HEIGHT = LITTLE_BELOW + THUMB_ABOVE + TABLE_CLEARANCE + TOP_CLEARANCE
 GRASP_CLOSURE = (0.85, 0.8, 0.8)  # grip, thumb flexion, opposition (fractions of their ranges)
 # Key times (s, nominal): reach from `REACH` to the pre-grasp at `APPROACH`, on the object at `CLOSE`, closed
 # at `LIFT`, lifted by `HOLD`, held until `LOWER`, down at `OPEN`, open at `RETREAT`, back at `DONE`.
-REACH, APPROACH, CLOSE, LIFT, HOLD, LOWER, OPEN, RETREAT, DONE = 0.3, 1.3, 1.8, 2.1, 2.9, 3.9, 4.7, 5.0, 5.7
+REACH, APPROACH, CLOSE, LIFT, HOLD, LOWER, OPEN, RETREAT, DONE = 0.3, 1.3, 1.7, 2.3, 3.0, 4.0, 4.7, 5.1, 5.7
 APPROACH_DISTANCE = 0.08  # m the hand comes in from, along its palm's normal ...
 # ... and from this far above: the reach from beside the thigh comes over the table's edge (hanging fingers swept
 # into it from 2 cm above: the whole-body controller's hand stopped 14 cm short, a finger pressed on the table).
