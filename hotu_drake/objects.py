@@ -149,10 +149,10 @@ GRASP_OBJECT_MODELS: dict[str, ObjectModel] = {
         _solid("potted_meat_can", "010 potted meat can", 0.37, box((0.050, 0.097, 0.082)), _BLUE),
         _solid("mustard_bottle", "006 mustard bottle", 0.60, box((0.058, 0.095, 0.190)), _YELLOW),
         _solid("soup_can", "005 tomato soup can", 0.35, cylinder(0.0335, 0.102, (0.0, 0.0, 0.0), _UP), _RED),
-        _solid("tennis_ball", "056 tennis ball", 0.06, sphere(0.0335), _GREEN),
+        _solid("tennis_ball", "056 tennis ball", 0.058, sphere(0.0327), _GREEN),
         _solid("baseball", "055 baseball", 0.15, sphere(0.037), (0.95, 0.95, 0.9, 1.0)),
         _solid("orange", "017 orange", 0.14, sphere(0.036), (0.95, 0.55, 0.1, 1.0)),
-        _solid("softball", "054 softball", 0.19, sphere(0.048), _YELLOW),
+        _solid("apple", "013 apple", 0.07, sphere(0.0375), _RED),
     )
 }
 OBJECT_MODELS |= GRASP_OBJECT_MODELS

@@ -40,7 +40,10 @@ TABLE_SETBACK = 0.07  # m from the table's near edge to the object's centre
 # knuckles, its near face on the palm, lies between them: the fingers press it from the front, the thumb from
 # behind. The closure the hand is sent to is past that (`GRASP_CLOSURE`), so that its PD presses.
 PALM_FACE = 0.025  # m
-CENTRE_BEHIND = -0.01  # m along the fingers, from the knuckles to the object's centre
+CENTRE_ALONG = -0.01  # m along the fingers, from the knuckles to the object's centre (behind them)
+# m across, the same: between the thumb's tip and the fingers (a short object, a ball: the thumb closes 3.2 cm to
+# the index side of the middle finger, and a golf ball under the middle finger was rolled off by the fingers alone)
+CENTRE_ACROSS = -0.016
 THUMB_ABOVE = 0.032  # m across: the thumb's tip closes this far to the index side of the knuckles ...
 LITTLE_BELOW = 0.049  # m ... the little finger's tip (with its radius) this far to the other side
 TABLE_CLEARANCE, TOP_CLEARANCE = 0.006, 0.015  # m: the little finger above the table, the thumb below the top
@@ -109,7 +112,7 @@ def grasp_shape(kind: str) -> GraspShape:
         # the little finger clear of the table.
         knuckles = max(LITTLE_BELOW + TABLE_CLEARANCE, 2 * rest - THUMB_ABOVE - TOP_CLEARANCE)
         return GraspShape(
-            np.array([CENTRE_BEHIND, -(across + PALM_FACE), knuckles - rest]),
+            np.array([-CENTRE_ALONG, -(across + PALM_FACE), knuckles - rest]),
             np.array([1.0, 0.0, 0.0]),
             np.array([0.0, 1.0, 0.0]),
             grip,
@@ -117,7 +120,7 @@ def grasp_shape(kind: str) -> GraspShape:
             opposition,
         )
     return GraspShape(
-        np.array([CENTRE_BEHIND, 0.0, rest + PALM_FACE]),
+        np.array([-CENTRE_ALONG, CENTRE_ACROSS, rest + PALM_FACE]),  # (across: -y, palm down)
         np.array([1.0, 0.0, 0.0]),
         np.array([0.0, 0.0, -1.0]),
         grip,
