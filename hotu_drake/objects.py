@@ -258,6 +258,23 @@ class SceneObject:
         return RigidTransform(RollPitchYaw(0.0, 0.0, self.yaw), np.asarray(self.position, dtype=float))
 
 
+def clip_scene_objects(names: list[str], poses: np.ndarray) -> list[SceneObject]:
+    """A clip's objects where they are at one frame (`poses` (K, 7), x y z w x
+    y z): a table welded to the floor below its top's centre (the clip's
+    table pose), every other object free at its pose, turned by its yaw."""
+    objects = []
+    for name, pose in zip(names, np.asarray(poses, dtype=float)):
+        kind = object_kind(name)
+        if kind is None:
+            raise InputError(f"object track {name!r} is of no known object ({', '.join(OBJECTS)})", field="objects")
+        yaw = float(2.0 * np.arctan2(pose[6], pose[3]))  # (objects of a clip turn about the vertical alone)
+        if kind == "table":
+            objects.append(SceneObject(kind, name, [float(pose[0]), float(pose[1]), 0.0], yaw, fixed=True))
+        else:
+            objects.append(SceneObject(kind, name, [float(x) for x in pose[:3]], yaw))
+    return objects
+
+
 def add_object(plant: MultibodyPlant, name: str, instance_name: str | None = None, weld: RigidTransform | None = None):
     """Add a task object to a plant (welded at `weld` if given, else free); returns its model instance."""
     if name not in OBJECTS:

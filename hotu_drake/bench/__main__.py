@@ -15,6 +15,7 @@ python -m hotu_drake.bench readers  [--input FILE ...] [--repeats N]
 python -m hotu_drake.bench clips    [--motions M ...] [--input FILE ...] [--robots NAME ...] [--markdown]
 python -m hotu_drake.bench teacher  [--robot NAME] [--seconds S] [--repeats N] [--queries N]
 python -m hotu_drake.bench pushes   [--robots NAME ...] [--momenta KG_M_S ...] [--markdown]
+python -m hotu_drake.bench grasps   [--grasps N] [--first SEED] [--time-steps DT ...]
 python -m hotu_drake.bench performs [--robots NAME ...] [--motions M ...] [--input FILE ...] [--seeds N]
                                     [--starts N] [--hands full|none] [--markdown]
 """
@@ -414,6 +415,27 @@ def _teacher(args) -> int:
     return 0
 
 
+def _grasps(args) -> int:
+    from hotu_drake.bench.grasps import grasp_table
+
+    check_number(args.grasps, "--grasps", low=1, high=1000, integer=True)
+    check_number(args.first, "--first", low=0, high=10**9, integer=True)
+    for step in args.time_steps:
+        check_number(step, "--time-steps", low=1e-4, high=0.05, unit="s")
+    pin_to_one_core()
+    tables = []
+    for step in args.time_steps:
+        tables.append(grasp_table(list(range(args.first, args.first + args.grasps)), step))
+        table = tables[-1]
+        print(
+            f"step {step:g} s: held {table['held']}/{table['grasps']} {table['per_object']}",
+            file=sys.stderr,
+            flush=True,
+        )
+    print(json.dumps({"benchmark": "grasps", "machine": machine(), "tables": tables}, indent=2))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = ArgumentParser(prog="python -m hotu_drake.bench", description="Benchmarks that print JSON.")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -488,6 +510,12 @@ def main(argv: list[str] | None = None) -> int:
     teacher.add_argument("--seconds", type=float, default=10.0, help="simulated seconds of walking")
     teacher.add_argument("--repeats", type=int, default=5, help="walks timed (the middle one reported)")
     teacher.add_argument("--queries", type=int, default=100, help="teacher_action queries timed in Imitation-v0")
+    grasps = sub.add_parser("grasps", help="the whole-body controller taking the grasp set's objects off a table")
+    grasps.add_argument("--grasps", type=int, default=20, help="grasps of the set (hand_grasp@<seed>)")
+    grasps.add_argument("--first", type=int, default=0, help="the first grasp's seed")
+    grasps.add_argument(
+        "--time-steps", type=float, nargs="+", default=[1.0 / 240.0], help="plant steps (s), one table each"
+    )
     pushes = sub.add_parser("pushes", help="cubes thrown at robots standing and walking under the controller")
     pushes.add_argument("--robots", nargs="+", default=["udh", "naviai", "h1", "walker", "bruce"])
     pushes.add_argument(
@@ -533,6 +561,8 @@ def main(argv: list[str] | None = None) -> int:
         return _performs(args)
     if args.command == "pushes":
         return _pushes(args)
+    if args.command == "grasps":
+        return _grasps(args)
     if args.command == "teacher":
         return _teacher(args)
     if args.command == "clips":
