@@ -347,3 +347,17 @@ def test_a_grasp_set_clip_holds_its_object_in_its_closed_hand(udh, seed):
     drift = (moment / total)[:, :2] - (moment / total)[0, :2]
     assert np.abs(drift).max() < 0.01  # ... and the centre of mass stayed where it stood
     assert np.abs(feet[:, :2] - feet[0, :2]).max() < 1e-6  # on feet that did not move
+
+
+def test_a_clips_objects_become_a_scene():
+    from hotu_drake.errors import InputError
+    from hotu_drake.objects import clip_scene_objects
+
+    yaw = 0.3
+    poses = np.array([[0.6, 0.1, 0.72, 1.0, 0, 0, 0], [0.4, -0.2, 0.77, np.cos(yaw / 2), 0, 0, np.sin(yaw / 2)]])
+    table, can = clip_scene_objects(["table", "soup_can"], poses)
+    assert table.fixed and table.position == [0.6, 0.1, 0.0]  # welded to the floor below its top
+    assert not can.fixed and can.kind == "soup_can" and can.position == pytest.approx([0.4, -0.2, 0.77])
+    assert can.yaw == pytest.approx(yaw)
+    with pytest.raises(InputError, match="'teapot'"):
+        clip_scene_objects(["teapot"], poses[:1])
