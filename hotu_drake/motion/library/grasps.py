@@ -6,11 +6,13 @@ that data, generated: `hand_grasp@<seed>` draws one object of the grasp set
 (`objects.GRASP_OBJECTS`: boxes, cans and balls at YCB sizes, and the drill)
 and where it stands on the table, then plans the reach, the approach along
 the palm's normal, the fingers closing around it, the lift, the hold, the
-lowering and the release. Boxes and cans are taken from the side (palm on
-their right, fingers round their front, thumb round their back), balls from
-above, the drill by its grip. The whole body moves (a lean over the table,
-the hips back to keep the weight over the feet), so the same clips serve a
-whole-body controller; a hand group trained on them sees only the fingers.
+lowering and the release. An object at least `SIDE_GRASP_HEIGHT` tall is
+taken from the side (palm on its right face, fingers round its front, the
+thumb round its back above the index), a shorter one or a ball from above,
+the drill by its grip. The whole body moves (a lean over the table, the
+hips back to keep the weight over the feet), so the same clips serve a
+whole-body controller (`bench grasps`); a hand group trained on them sees
+only the fingers.
 """
 
 from __future__ import annotations
