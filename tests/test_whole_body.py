@@ -980,8 +980,18 @@ def test_the_controller_lifts_a_can_in_its_closed_hand():
     UDH with its hands, the can and the table in the scene: at a 1/240 s plant
     step the can is up in the right hand halfway through the hold (it rose
     0.11 of the clip's 0.13 m when this was written)."""
+    import subprocess
+    import sys
+
     from hotu_drake.bench.grasps import HELD_LIFT, grasp_trial
 
     trial = grasp_trial(1, 1.0 / 240.0)
     assert trial["object"] == "soup_can"
     assert trial["held"] and trial["lift_m"] > 2 * HELD_LIFT
+    refused = subprocess.run(
+        [sys.executable, "-m", "hotu_drake.bench", "grasps", "--grasps", "0"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert refused.returncode != 0 and "--grasps" in refused.stderr
