@@ -6,10 +6,10 @@ that data, generated: `hand_grasp@<seed>` draws one object of the grasp set
 (`objects.GRASP_OBJECTS`: boxes, cans and balls at YCB sizes, and the drill)
 and where it stands on the table, then plans the reach, the approach along
 the palm's normal, the fingers closing around it, the lift, the hold, the
-lowering and the release. An object at least `SIDE_GRASP_HEIGHT` tall is
-taken from the side (palm on its right face, fingers round its front, the
-thumb round its back above the index), a shorter one or a ball from above,
-the drill by its grip. The whole body moves (a lean over the table, the
+lowering and the release. Boxes, cans and balls are taken from above (palm
+down, fingers round the front, the thumb round the back: from the side, a
+tall thin box was tipped over by the fingers pressing low and the thumb
+high, 0 of 6 held), the drill by its grip. The whole body moves (a lean over the table, the
 hips back to keep the weight over the feet), so the same clips serve a
 whole-body controller (`bench grasps`); a hand group trained on them sees
 only the fingers.
@@ -23,7 +23,7 @@ import numpy as np
 
 from hotu_drake.motion.library.planning import Base, Scene, plan_base, set_hand_shape, set_joints, stand, yaw_pose
 from hotu_drake.motion.synthesis import HandTarget, Plan, foot_tracks, hand_rotation, keyframes, ramp
-from hotu_drake.objects import GRASP_OBJECTS, OBJECT_MODELS, TABLE_TOP, resting_height
+from hotu_drake.objects import GRASP_OBJECTS, TABLE_TOP, resting_height
 from hotu_drake.rotations import rot_z
 
 # Where the grasp set's objects stand and how far they go up. Stated once: the library draws its clips
@@ -45,13 +45,9 @@ GRASP_TABLE = (0.54, -0.16)
 # behind. The closure the hand is sent to is past that (`GRASP_CLOSURE`), so that its PD presses.
 PALM_FACE = 0.025  # m
 CENTRE_ALONG = -0.01  # m along the fingers, from the knuckles to the object's centre (behind them)
-# m across, the same: between the thumb's tip and the fingers (a short object, a ball: the thumb closes 3.2 cm to
+# m across, the same: between the thumb's tip and the fingers (the thumb closes 3.2 cm to
 # the index side of the middle finger, and a golf ball under the middle finger was rolled off by the fingers alone)
 CENTRE_ACROSS = -0.016
-THUMB_ABOVE = 0.032  # m across: the thumb's tip closes this far to the index side of the knuckles ...
-LITTLE_BELOW = 0.049  # m ... the little finger's tip (with its radius) this far to the other side
-TABLE_CLEARANCE, TOP_CLEARANCE = 0.006, 0.015  # m: the little finger above the table, the thumb below the top
-SIDE_GRASP_HEIGHT = LITTLE_BELOW + THUMB_ABOVE + TABLE_CLEARANCE + TOP_CLEARANCE  # m: an object this tall or more
 GRASP_CLOSURE = (0.85, 0.8, 0.8)  # grip, thumb flexion, opposition (fractions of their ranges)
 # Key times (s, nominal): reach from `REACH` to the pre-grasp at `APPROACH`, on the object at `CLOSE`, closed
 # at `LIFT`, lifted by `HOLD`, held until `LOWER`, down at `OPEN`, open at `RETREAT`, back at `DONE`.
@@ -100,31 +96,16 @@ def sample_grasp(rng: np.random.Generator, ranges: dict[str, tuple[float, float]
 
 
 def grasp_shape(kind: str) -> GraspShape:
-    """How the right hand takes `kind` (see `GraspShape`): an object at least
-    `SIDE_GRASP_HEIGHT` tall from the side, fingers level, its axis across the
-    palm; a shorter one or a ball from above, palm down."""
+    """How the right hand takes `kind` (see `GraspShape`): from above, palm
+    down, fingers forward round its front, the thumb round its back; a box
+    across its thinnest side (its x). The drill by its grip."""
     if kind == "drill":  # its grip (a 2 cm radius cylinder at the frame), fingers forward round it
         return GraspShape(
             np.array([-0.015, -0.045, 0.0]), np.array([1.0, 0.0, -0.35]), np.array([0.0, 1.0, 0.0]), 0.8, 0.6, 0.7
         )
-    geometry = OBJECT_MODELS[kind].shapes[0].geometry
-    rest = resting_height(kind)  # its centre above the table, and its top above its centre
-    across = geometry.size[0] if geometry.shape != "box" else geometry.size[1] / 2  # half its depth from the palm
     grip, thumb_flex, opposition = GRASP_CLOSURE
-    if geometry.shape != "sphere" and 2 * rest >= SIDE_GRASP_HEIGHT:
-        # Palm on its right face; the knuckles as high as the thumb's tip lets them (it closes above the index),
-        # the little finger clear of the table.
-        knuckles = max(LITTLE_BELOW + TABLE_CLEARANCE, 2 * rest - THUMB_ABOVE - TOP_CLEARANCE)
-        return GraspShape(
-            np.array([-CENTRE_ALONG, -(across + PALM_FACE), knuckles - rest]),
-            np.array([1.0, 0.0, 0.0]),
-            np.array([0.0, 1.0, 0.0]),
-            grip,
-            thumb_flex,
-            opposition,
-        )
     return GraspShape(
-        np.array([-CENTRE_ALONG, CENTRE_ACROSS, rest + PALM_FACE]),  # (across: -y, palm down)
+        np.array([-CENTRE_ALONG, CENTRE_ACROSS, resting_height(kind) + PALM_FACE]),  # (across: -y, palm down)
         np.array([1.0, 0.0, 0.0]),
         np.array([0.0, 0.0, -1.0]),
         grip,
