@@ -301,7 +301,7 @@ def test_the_grasp_set_draws_every_object_of_it():
         assert GRASP_RANGES["lift"][0] <= task.lift <= GRASP_RANGES["lift"][1]
 
 
-# One seed per way of taking an object: from the side (a tall box), from above (a ball, a short box), the drill.
+# Seeds of each kind of object: a tall box, a ball, a short box, the drill.
 @pytest.mark.parametrize("seed", [23, 4, 11, 15])
 def test_a_grasp_set_clip_holds_its_object_in_its_closed_hand(udh, seed):
     """`hand_grasp@<seed>`: the hand landmark on the grasp point from the
