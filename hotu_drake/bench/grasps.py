@@ -5,9 +5,8 @@ hands, in a scene of the clip's first frame (the table welded, the object
 free where it stands), performed by the whole-body controller from the
 clip's first frame. An object is held when, halfway through the clip's
 hold, it is at least `HELD_LIFT` above where it stood with a body of the
-right hand touching it. The plant's step is a row's setting: the fingers'
-links weigh 3-10 g, and a grasp that holds at a fine step slips at a
-coarse one.
+right hand touching it. The plant's step is a row's setting (the fingers'
+links weigh 3-10 g).
 """
 
 from __future__ import annotations

@@ -81,6 +81,16 @@ def center_of_mass(
     return moment / total
 
 
+def batch_center_of_mass(poses: dict[str, tuple[np.ndarray, np.ndarray]], spec: EmbodimentSpec) -> np.ndarray:
+    """Whole-body centre of mass (T, 3) over frames, from `batch_link_poses`' poses."""
+    total, moment = 0.0, 0.0
+    for name, mass, com in mass_table(spec):
+        rot, pos = poses[name]
+        total += mass
+        moment = moment + mass * (pos + rot @ com)
+    return moment / total
+
+
 def foot_contact_points(spec: EmbodimentSpec, q: Mapping[str, float]) -> np.ndarray:
     """World centres of the feet's collision shapes (N x 3)."""
     poses = link_poses(spec, q)

@@ -10,7 +10,7 @@ import numpy as np
 
 from hotu_drake import embodiment
 from hotu_drake.embodiment import Embodiment
-from hotu_drake.embodiment.kinematics import batch_link_poses, mass_table
+from hotu_drake.embodiment.kinematics import batch_center_of_mass, batch_link_poses
 from hotu_drake.embodiment.spec import SIDES
 from hotu_drake.errors import InputError, check_number
 from hotu_drake.motion.clip import MotionClip
@@ -141,17 +141,6 @@ CENTRING_PASSES = 4  # `_centred`: each pass leaves the share of the error the l
 UPPER_BODY_SHARE = 0.65  # about the share of the UDH's mass that moves with its pelvis when the feet stay put
 
 
-def _centre_of_mass(udh: Embodiment, q: np.ndarray, plan: Plan) -> np.ndarray:
-    """The UDH's centre of mass (T, 3) along a plan realised as `q`."""
-    poses = batch_link_poses(udh.spec, udh.joint_names, q, plan.pelvis_rot, plan.pelvis)
-    total, moment = 0.0, np.zeros((len(q), 3))
-    for link, mass, local in mass_table(udh.spec):
-        rot, pos = poses[link]
-        moment += mass * (pos + rot @ local)
-        total += mass
-    return moment / total
-
-
 def _centred(udh: Embodiment, body: Body, plan: Plan) -> np.ndarray:
     """`plan` realised with its pelvis moved (in x and y) until the centre of
     mass sits over the middle of the two soles on every frame; the hands'
@@ -159,7 +148,8 @@ def _centred(udh: Embodiment, body: Body, plan: Plan) -> np.ndarray:
     for _ in range(CENTRING_PASSES):
         q = realize(body, plan)
         soles = [pos + rot @ body.foot_points.mean(axis=0) for pos, rot in plan.feet.values()]
-        error = _centre_of_mass(udh, q, plan)[:, :2] - np.mean(soles, axis=0)[:, :2]
+        poses = batch_link_poses(udh.spec, udh.joint_names, q, plan.pelvis_rot, plan.pelvis)
+        error = batch_center_of_mass(poses, udh.spec)[:, :2] - np.mean(soles, axis=0)[:, :2]
         plan.pelvis[:, :2] -= error / UPPER_BODY_SHARE
     return realize(body, plan)
 
