@@ -13,8 +13,6 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
-
 HELD_LIFT = 0.05  # m above its start, halfway through the hold
 LEAD_IN = 0.5  # s the controller holds the clip's first frame before it moves
 
@@ -22,13 +20,15 @@ LEAD_IN = 0.5  # s the controller holds the clip's first frame before it moves
 def grasp_scenario(seed: int, time_step: float, control_rate: float = 60.0):
     """The scene and driver of one grasp of the set (see the module), run
     until halfway through its hold; returns (scenario, object kind, time)."""
-    from hotu_drake.motion.library import generate_udh, grasps
+    from hotu_drake import embodiment
+    from hotu_drake.motion.library import grasps
     from hotu_drake.objects import clip_scene_objects
+    from hotu_drake.retarget.references import reference_clip
     from hotu_drake.scenario import InitialCondition, Scenario, WholeBodyTracking
 
     name = f"hand_grasp@{seed}"
-    clip = generate_udh(name)
-    kind = grasps.sample_grasp(np.random.default_rng(seed)).kind
+    clip = reference_clip(name, embodiment.load("udh", "full"))  # the clip the controller performs (cached)
+    kind = next(track for track in clip.object_names if track != "table")
     at = LEAD_IN + 0.5 * (grasps.HOLD + grasps.LOWER)  # (the clip at its nominal duration)
     scenario = Scenario(
         embodiment="udh",

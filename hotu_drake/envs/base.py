@@ -32,6 +32,7 @@ from hotu_drake.diagrams import Simulation, build_simulation
 from hotu_drake.embodiment import EMBODIMENT_NAMES, HANDS_VARIANTS, Embodiment
 from hotu_drake.embodiment.actions import standing_action
 from hotu_drake.errors import InputError, check_bool, check_choice, check_number
+from hotu_drake.learning.config import CLIP_SAMPLINGS
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.playback import ClipPlayback
 from hotu_drake.objects import SceneObject, place_objects
@@ -111,9 +112,6 @@ class EnvTimings:
         parts = {"physics": self.physics, "observation": self.observation}
         parts |= {"amp_observation": self.amp_observation, "python_overhead": python, "total": self.total}
         return {k: round(1000 * v / n, 4) for k, v in parts.items()}
-
-
-CLIP_SAMPLINGS = ("uniform", "falls")
 
 
 def clip_weights(falls: np.ndarray, episodes: np.ndarray) -> np.ndarray:

@@ -182,6 +182,9 @@ class TeacherConfig:
     label_fade_samples: int = 300_000
 
 
+CLIP_SAMPLINGS = ("uniform", "falls")  # how an environment draws an episode's clip (`envs.base.clip_weights`)
+
+
 @dataclass
 class EnvironmentConfig:
     """What the trainer asks of each environment (`Imitation-v0` keywords)."""
@@ -263,7 +266,7 @@ class TrainConfig:
         check_number(self.warm_start.observation_noise, "warm_start.observation_noise", where, low=0.0, high=10.0)
         env = self.environment
         check_number(env.amp_history, "environment.amp_history", where, low=1, high=300, integer=True)
-        check_choice(env.clip_sampling, "environment.clip_sampling", ("uniform", "falls"), where)
+        check_choice(env.clip_sampling, "environment.clip_sampling", CLIP_SAMPLINGS, where)
         check_number(env.control_rate, "environment.control_rate", where, low=1.0, high=1000.0)
         t = self.teacher
         check_number(t.teacher_iterations, "teacher.teacher_iterations", where, low=0, high=10**6, integer=True)
