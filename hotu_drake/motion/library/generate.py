@@ -145,11 +145,11 @@ def _centred(udh: Embodiment, body: Body, plan: Plan) -> np.ndarray:
     """`plan` realised with its pelvis moved (in x and y) until the centre of
     mass sits over the middle of the two soles on every frame; the hands'
     targets stay where they are in the world (the arms reach further)."""
+    soles = np.mean([pos + rot @ body.foot_points.mean(axis=0) for pos, rot in plan.feet.values()], axis=0)
     for _ in range(CENTRING_PASSES):
         q = realize(body, plan)
-        soles = [pos + rot @ body.foot_points.mean(axis=0) for pos, rot in plan.feet.values()]
         poses = batch_link_poses(udh.spec, udh.joint_names, q, plan.pelvis_rot, plan.pelvis)
-        error = batch_center_of_mass(poses, udh.spec)[:, :2] - np.mean(soles, axis=0)[:, :2]
+        error = batch_center_of_mass(poses, udh.spec)[:, :2] - soles[:, :2]
         plan.pelvis[:, :2] -= error / UPPER_BODY_SHARE
     return realize(body, plan)
 
