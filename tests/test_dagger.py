@@ -182,3 +182,43 @@ def test_an_environment_without_labels_is_named():
     with pytest.raises(RuntimeError, match="teacher=True"):
         agent.iteration()
     envs.close()
+
+
+class _ObjectEnvs:
+    """Two environments of 4-step episodes whose objects rise by `peaks`
+    (the first at its last step, seen only in `final_info`), for
+    `follow_clips`' held-object figures."""
+
+    num_envs = 2
+
+    def __init__(self, peaks):
+        self.peaks, self.steps = np.asarray(peaks, dtype=float), 0
+
+    def _info(self, rise):
+        return {
+            "root_xy": np.zeros((2, 2)),
+            "reference_root_xy": np.zeros((2, 2)),
+            "time": np.zeros(2),
+            "object_rise": rise,
+        }
+
+    def reset(self, seed=None):
+        self.steps = 0
+        return np.zeros((2, 3)), self._info(np.zeros(2))
+
+    def step(self, actions):
+        self.steps += 1
+        ending = self.steps % 4 == 0
+        rise = np.where(self.steps % 4 == 3, [0.0, self.peaks[1]], 0.0)
+        info = self._info(np.zeros(2) if ending else rise)
+        if ending:
+            info["final_info"] = self._info(np.array([self.peaks[0], 0.0]))
+        return np.zeros((2, 3)), np.zeros(2), np.zeros(2, bool), np.full(2, ending), info
+
+
+def test_follow_clips_counts_the_objects_held_up_at_any_step_of_an_episode():
+    report = follow_clips(_ObjectEnvs([0.06, 0.02]), lambda o, info: np.zeros((2, 1)), episodes=4, seed=0)
+    assert report["object_episodes"] == 4 and report["objects_held"] == 2, report  # the first's, twice
+    report = follow_clips(_ObjectEnvs([0.04, 0.08]), lambda o, info: np.zeros((2, 1)), episodes=2, seed=0)
+    assert report["objects_held"] == 1, report
+    assert "object_episodes" not in follow_clips(toy_env.teacher_vector_env(1), teacher_policy, episodes=1, seed=0)

@@ -26,12 +26,17 @@
   `Scenario`, a scenario file or a shipped name: its robot, plant and
   objects); `robot`, `hands`, `time_step`, `control_rate` and
   `sampled_output_ports` override either.
+- `clip_objects`: the clips' objects in the scene (`envs.clip_objects`):
+  an episode on a clip that handles an object starts with the clip's
+  table and object where the clip has them; `info["object_rise"]` is how
+  far its object is above where it started (NaN on other clips).
 """
 
 from collections.abc import Sequence
 
 from hotu_drake import embodiment as embodiments
 from hotu_drake.envs.base import DiagramEnv, environment_scenario
+from hotu_drake.envs.clip_objects import ClipObjects
 from hotu_drake.envs.tracking import CLIP_SCALES, CLIP_WEIGHTS, ClipTracking, tracking_terms
 from hotu_drake.errors import check_bool
 from hotu_drake.retarget.references import looped_motions, motion_list, reference_clips
@@ -50,6 +55,7 @@ class ImitationEnv(DiagramEnv):
         sampled_output_ports: bool | None = None,
         tracking_reward: bool = False,
         loop: bool | Sequence[str] = False,
+        clip_objects: bool = False,
         **options,
     ):
         scenario = environment_scenario(scenario, robot, hands, time_step, control_rate, sampled_output_ports)
@@ -57,9 +63,25 @@ class ImitationEnv(DiagramEnv):
         where = type(self).__name__
         clips = reference_clips(emb, motions)
         loops = looped_motions(loop, motion_list(motions), f"{where}: loop")
+        self._clip_objects = ClipObjects(clips) if check_bool(clip_objects, "clip_objects", where) else None
+        if self._clip_objects is not None:
+            scenario.objects = [*scenario.objects, *self._clip_objects.scene_objects()]
         super().__init__(scenario, clips, emb, loop=loops, **options)
+        if self._clip_objects is not None:
+            self._clip_objects.bind(self.sim.plant, self.sim.objects)
         self.tracking_reward = check_bool(tracking_reward, "tracking_reward", where)
         self._tracking = ClipTracking(self.sim.plant, self.sim.model, emb, self._observer, self.clips, self.loops)
+
+    def _place_task(self) -> None:
+        if self._clip_objects is not None:
+            clip, time_ = self._episode_clip, self._clip_time()
+            self._clip_objects.place(self.sim.plant, self._plant_context, clip, time_, self._episode_frame)
+
+    def _info(self, terminated: bool) -> dict:
+        info = super()._info(terminated)
+        if self._clip_objects is not None:
+            info["object_rise"] = self._clip_objects.rise(self.sim.plant, self._plant_context)
+        return info
 
     def _task_reward(self, info: dict) -> float:
         if not self.tracking_reward or self._episode_clip is None:

@@ -82,6 +82,7 @@ def imitation_run(settings: dict, config) -> RunEnvironments:
             "pose_observation": env.pose_observation,
             "standing_follow": env.standing_follow,
             "clip_sampling": "uniform" if evaluation else env.clip_sampling,
+            "clip_objects": env.clip_objects,
             "max_episode_steps": round(EPISODE_SECONDS * env.control_rate),
         }
         if evaluation and env.teacher and not env.standing_follow:  # each clip from its start

@@ -205,6 +205,9 @@ class EnvironmentConfig:
     # How a training episode's clip is drawn: "uniform", or "falls" (half evenly, half by each clip's smoothed
     # fall rate in that worker's environment, `envs.base.clip_weights`). Its effect is not yet measured.
     clip_sampling: str = "uniform"
+    # The clips' objects in the scene (a grasp's table and object, the carry's box), each episode's where its
+    # clip has them (`envs.clip_objects`); the run's evaluation then reports how many it held up.
+    clip_objects: bool = False
     termination_height: float = 0.5
     amp_history: int = 10
     # End an episode after `style_patience` steps under this combined style reward; 0: off (the

@@ -39,6 +39,7 @@ import numpy as np
 from hotu_drake.learning.demonstrations import Demonstrations
 from hotu_drake.learning.latents import LatentSchedule
 
+HELD_LIFT = 0.05  # m: an object this far above where it started is held (`bench grasps`' rule, without its contact)
 Policy = Callable[[np.ndarray, dict[str, np.ndarray]], np.ndarray]
 
 
@@ -367,16 +368,27 @@ def follow_clips(
     `coverage_of` (the observation's joint-position columns and the
     reference's joint frames), also `coverage_deg`: the mean over the
     reference's frames of the distance to the nearest frame of the
-    episodes (`evaluate`'s coverage, over all joints)."""
+    episodes (`evaluate`'s coverage, over all joints). In environments
+    with the clips' objects (`info["object_rise"]`), also how many
+    episodes had an object (`object_episodes`) and how many of those
+    lifted it at least `HELD_LIFT` above where it started at some step
+    (`objects_held`): nothing but the robot lifts an object off its table."""
     observations, info = envs.reset(seed=seed)
     start = {key: np.array(info[key]) for key in ("root_xy", "reference_root_xy")}
     falls, seconds, travel, reference = 0, [], [], []
     columns = None if coverage_of is None else np.asarray(coverage_of[0])
     running: list[list[np.ndarray]] = [[] for _ in range(envs.num_envs)]
     frames: list[np.ndarray] = []
+    rise = np.full(envs.num_envs, np.nan)  # each environment's highest object rise in its episode so far
+    object_episodes = held = 0
     while len(seconds) < episodes:
         observations, _, terminated, truncated, info = envs.step(policy(observations, info))
         done = terminated | truncated
+        if "object_rise" in info:
+            now = np.asarray(info["object_rise"], dtype=float).copy()
+            for i in np.flatnonzero(done):
+                now[i] = info["final_info"]["object_rise"][i]
+            rise = np.fmax(rise, now)
         if columns is not None:
             after = observations.copy()
             for i in np.flatnonzero(done):  # the ended episode's last state
@@ -391,7 +403,10 @@ def follow_clips(
                 travel.append(float(np.linalg.norm(last["root_xy"][i] - start["root_xy"][i])))
                 reference.append(float(np.linalg.norm(last["reference_root_xy"][i] - start["reference_root_xy"][i])))
                 frames.extend(running[i])
+                object_episodes += int(np.isfinite(rise[i]))
+                held += int(rise[i] >= HELD_LIFT)
             running[i] = []
+            rise[i] = np.nan
             for key in start:
                 start[key][i] = info[key][i]
     report = {
@@ -402,6 +417,8 @@ def follow_clips(
         "reference_travel_m": float(np.mean(reference)),
         "travel_ratio": travel_ratio(travel, reference),
     }
+    if object_episodes:
+        report |= {"object_episodes": object_episodes, "objects_held": held}
     if coverage_of is not None:
         report["coverage_deg"] = float(
             np.degrees(_nearest_distance(np.asarray(coverage_of[1]), np.array(frames)).mean())
