@@ -14,8 +14,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.multibody.math import SpatialVelocity
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import PlanarJoint
 
 from hotu_drake.embodiment.formats.common import fmt, vec
 from hotu_drake.embodiment.formats.sdf import geometry_sdf
@@ -229,8 +231,11 @@ class SceneObject:
     """A task object (box, drill, table or target_marker) at `position`
     with `yaw` (rad). `fixed` welds it to the world; `held` keeps a free
     object floating at its start until the robot first touches it (the
-    method's box task). A `target` (3-D) adds a target marker there and is
-    the object's goal in the interaction graph."""
+    method's box task). A table that is not `fixed` stands on the floor on
+    a planar joint (x, y, yaw) damped by `TABLE_DAMPING`: it can be moved
+    between episodes and hardly moves when leant on (its legs have no
+    collision, so it could not stand free). A `target` (3-D) adds a target
+    marker there and is the object's goal in the interaction graph."""
 
     kind: str = "box"
     name: str = ""
@@ -286,6 +291,9 @@ def add_object(plant: MultibodyPlant, name: str, instance_name: str | None = Non
     return model
 
 
+TABLE_DAMPING = (1e5, 1e5, 1e4)  # N s/m along x and y, N m s/rad about z: a table that is not fixed
+
+
 def add_scene_objects(plant: MultibodyPlant, scene_objects: list[SceneObject]) -> dict:
     """Add a scenario's objects (and a marker at each target) before `Finalize`;
     returns instance name -> model instance."""
@@ -293,6 +301,9 @@ def add_scene_objects(plant: MultibodyPlant, scene_objects: list[SceneObject]) -
     for obj in scene_objects:
         weld = obj.pose() if obj.is_welded else None
         objects[obj.instance_name] = add_object(plant, obj.kind, obj.instance_name, weld=weld)
+        if obj.kind == "table" and weld is None:
+            top = plant.GetBodyByName("table", objects[obj.instance_name])
+            plant.AddJoint(PlanarJoint("planar", plant.world_frame(), top.body_frame(), np.array(TABLE_DAMPING)))
         if obj.kind == "target_marker" and weld is None:
             plant.set_gravity_enabled(objects[obj.instance_name], False)
         if obj.target:
@@ -316,9 +327,23 @@ def place_objects(plant: MultibodyPlant, plant_context, objects: dict, scene_obj
     """Put every free scene object at its start pose, and each target marker at its target."""
     for obj in scene_objects:
         if not obj.is_welded:
-            plant.SetFreeBodyPose(plant_context, object_body(plant, objects, obj), obj.pose())
+            set_object_pose(plant, plant_context, object_body(plant, objects, obj), obj.pose())
         if obj.target:
             place_target_marker(plant, plant_context, objects, obj, obj.target)
+
+
+def set_object_pose(plant: MultibodyPlant, plant_context, body, pose: RigidTransform) -> None:
+    """Put an object that is not welded at `pose`, at rest: a free body, or
+    a table on its planar joint (its position's x and y, its yaw)."""
+    if body.is_floating_base_body():
+        plant.SetFreeBodyPose(plant_context, body, pose)
+        plant.SetFreeBodySpatialVelocity(plant_context, body, SpatialVelocity.Zero())
+        return
+    joint = plant.GetJointByName("planar", body.model_instance())
+    turn = pose.rotation().matrix()
+    joint.set_pose(plant_context, pose.translation()[:2], float(np.arctan2(turn[1, 0], turn[0, 0])))
+    joint.set_translational_velocity(plant_context, np.zeros(2))
+    joint.set_angular_velocity(plant_context, 0.0)
 
 
 def place_target_marker(plant: MultibodyPlant, plant_context, objects: dict, obj: SceneObject, target) -> None:

@@ -7,9 +7,10 @@ its clips name (tables included); an episode on such a clip starts with
 the clip's objects where the clip has them at the episode's start, taken
 into the world as the robot's reference is (the episode's frame), and
 every other object parked out of the way. A table stands where its clip
-puts it, locked in place (`RigidBody.Lock`: a table cannot be welded
-for one episode and moved for the next); parked objects are locked too,
-so they cost the simulator nothing. An episode's objects are what
+puts it, on its damped planar joint (`objects.SceneObject`: a table
+cannot be welded for one episode and moved for the next). Locking the
+bodies instead (`RigidBody.Lock`) crashed Drake 1.51's SAP solver in an
+episode started with an object in the hand. An episode's objects are what
 `rise` measures: how far its first non-table object is above where it
 started (the held-object figure of a run's evaluation).
 """
@@ -21,12 +22,11 @@ from collections.abc import Sequence
 import numpy as np
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.multibody.math import SpatialVelocity
 from pydrake.multibody.plant import MultibodyPlant
 
 from hotu_drake.errors import InputError
 from hotu_drake.motion.clip import MotionClip
-from hotu_drake.objects import OBJECTS, SceneObject, object_kind, resting_height
+from hotu_drake.objects import OBJECTS, SceneObject, object_kind, resting_height, set_object_pose
 
 PARKED_AT = (-50.0, 0.0)  # m: where objects out of their episode wait, each a few metres from the last
 PARKED_SPACING = 3.0
@@ -68,24 +68,17 @@ class ClipObjects:
         """The built plant's bodies of `scene_objects` (`instances`: instance name -> model instance)."""
         self._bodies = {kind: plant.GetBodyByName(kind, instances[kind]) for kind in self.kinds}
 
-    def has_objects(self, clip_index: int) -> bool:
-        return bool(self._tracks[clip_index])
-
     def place(self, plant: MultibodyPlant, context, clip_index: int | None, clip_time: float, frame) -> None:
         """An episode's start: the objects of clip `clip_index` where it has
         them at `clip_time` (its nearest frame), taken into the world by
-        `frame` (the clip's world in the world), at rest; tables locked,
-        the others free; every other object parked and locked."""
-        used = dict(self._tracks[clip_index]) if clip_index is not None else {}
-        placed = {kind: index for index, kind in used.items()}
+        `frame` (the clip's world in the world), at rest; every other
+        object parked, resting on the floor."""
+        placed = {kind: index for index, kind in self._tracks[clip_index]} if clip_index is not None else {}
         self._episode = None
         for i, kind in enumerate(self.kinds):
             body = self._bodies[kind]
-            body.Unlock(context)
             if kind not in placed:
-                plant.SetFreeBodyPose(context, body, RigidTransform(self._parked(i, kind)))
-                plant.SetFreeBodySpatialVelocity(context, body, SpatialVelocity.Zero())
-                body.Lock(context)
+                set_object_pose(plant, context, body, RigidTransform(self._parked(i, kind)))
                 continue
             clip = self._clips[clip_index]
             row = min(int(round(clip_time * clip.fps)), clip.num_frames - 1)
@@ -95,11 +88,8 @@ class ClipObjects:
                 yaw = float(2.0 * np.arctan2(pose[6], pose[3]))
                 in_clip = RigidTransform(RotationMatrix.MakeZRotation(yaw), [pose[0], pose[1], 0.0])
             world = frame @ in_clip
-            plant.SetFreeBodyPose(context, body, world)
-            plant.SetFreeBodySpatialVelocity(context, body, SpatialVelocity.Zero())
-            if kind == "table":
-                body.Lock(context)
-            elif self._episode is None:
+            set_object_pose(plant, context, body, world)
+            if kind != "table" and self._episode is None:
                 self._episode = (body, float(world.translation()[2]))
 
     def rise(self, plant: MultibodyPlant, context) -> float:

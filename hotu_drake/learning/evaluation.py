@@ -279,7 +279,8 @@ def behavior_report(agent, envs, standing: np.ndarray, episodes: int, seed: int)
 def behavior_summary(report: dict) -> dict:
     """A behavior report's headline figures, next to standing's (and the
     teacher's, for a clone; a clone of several motions, each motion's)."""
-    keys = ("fall_rate", "mean_episode_seconds", "travel_ratio", "coverage_deg")  # coverage: newer reports
+    # (coverage: newer reports; objects held: environments with the clips' objects)
+    keys = ("fall_rate", "mean_episode_seconds", "travel_ratio", "coverage_deg", "objects_held")
     if "by_motion" in report["evaluation"]:
         return {
             f"{motion}_{who}_{k}": evaluation[who][k]
