@@ -214,3 +214,42 @@ def test_a_clone_of_several_motions_is_reported_motion_by_motion(tmp_path, capsy
     assert walk["teacher"]["reference_travel_m"] > 3.0 > wave["teacher"]["reference_travel_m"]  # each its own clip
     headline = json.loads(capsys.readouterr().err.strip().splitlines()[-1])
     assert {"walk_policy_fall_rate", "wave_teacher_mean_episode_seconds"} <= set(headline)
+
+
+def test_a_run_starts_from_another_runs_networks_when_they_fit(bruce_run, tmp_path, capsys):
+    """`--init RUN`: the new run begins with RUN's weights (after one
+    iteration its policy is far nearer RUN's than a fresh run's is), and
+    records where it began; a run of another robot, networks of another
+    shape, or `--resume` with it are refused before anything is written."""
+    from hotu_drake.cli import run_cli
+
+    config = tmp_path / "tiny.yaml"
+    config.write_text(TINY)
+    common = ["--steps", "32", "--config", str(config), "--eval-episodes", "0", "--seed", "1"]  # (RUN's is 0)
+    assert main(["pretrain", *BRUCE, *common, "--out", str(tmp_path / "fresh")]) == 0
+    assert main(["pretrain", *BRUCE, *common, "--out", str(tmp_path / "init"), "--init", str(bruce_run)]) == 0
+
+    def first_layer(folder):
+        state = read_checkpoint(folder / "checkpoint.pt", kind="training")["state"]["model"]
+        return next(value for key, value in state.items() if key.endswith("weight")).numpy()
+
+    origin = first_layer(bruce_run)
+    near, fresh = (np.abs(first_layer(tmp_path / name) - origin).mean() for name in ("init", "fresh"))
+    assert near < 0.1 * fresh, (near, fresh)
+    assert json.loads((tmp_path / "init" / "run.json").read_text())["init"] == str(bruce_run.resolve())
+
+    wide = tmp_path / "wide.yaml"
+    wide.write_text(TINY.replace("policy_hidden: [32, 32]", "policy_hidden: [48]"))
+    refused = [
+        (["--robot", "h1", "--motions", "walk", *common], "a run of robot bruce, not h1"),
+        ([*BRUCE, *common[:2], "--config", str(wide), "--eval-episodes", "0"], "networks do not fit"),
+    ]
+    for index, (argv, message) in enumerate(refused):
+        out = tmp_path / f"refused{index}"
+        assert run_cli(main, ["pretrain", *argv, "--out", str(out), "--init", str(bruce_run)]) == 2
+        assert message in capsys.readouterr().err
+        assert not (out / "run.json").exists()
+    code = run_cli(
+        main, ["pretrain", "--out", str(tmp_path / "init"), "--steps", "64", "--resume", "--init", str(bruce_run)]
+    )
+    assert code == 2 and "--resume continues" in capsys.readouterr().err

@@ -3,6 +3,8 @@
     python -m hotu_drake.train pretrain --robot h1 --hands none --motions wave,boxing,handshake \\
         --algo dail --steps 2000000 --workers 2 --out runs/h1_upper
     python -m hotu_drake.train pretrain --out runs/h1_upper --steps 4000000 --resume
+    python -m hotu_drake.train pretrain --robot udh --hands full --motions walk,hand_grasp@0 --algo dagger \
+        --init runs/udh_grasps --steps 1000000 --out runs/udh_library     (from another run's networks)
     python -m hotu_drake.train evaluate runs/h1_upper [--episodes 20]
     python -m hotu_drake.train plot runs/h1_upper runs/h1_upper_amp --out curves.png [--keys style,episode_length]
     python -m hotu_drake.train trace runs/h1_upper --out trace.png [--parts shoulder,elbow] [--seed 7]
@@ -65,6 +67,7 @@ def main(argv: list[str] | None = None) -> int:
     pre.add_argument("--hands", help="full or none (default none)")
     pre.add_argument("--motions", help="comma-separated library motions and/or .npz clips of the robot")
     pre.add_argument("--algo", help=f"{' | '.join(ALGORITHMS)} (default dail)")
+    pre.add_argument("--init", help="start from this run's networks (the same robot, hands and observation)")
     add_run_arguments(pre, "the algorithm's preset (learning.config)", eval_episodes=20)
     ev = sub.add_parser("evaluate", help="evaluate a run's last checkpoint; writes its report.json")
     ev.add_argument("run", help="the run folder")
@@ -104,6 +107,8 @@ def main(argv: list[str] | None = None) -> int:
 def _settings(args, folder: RunFolder) -> tuple[dict, TrainConfig]:
     """The run's settings and configuration, from the command line or, on
     resume, from the run folder (the command line may not contradict them)."""
+    if args.resume and args.init:
+        raise InputError("--init starts a new run from another's networks; --resume continues this one")
     if args.resume:
         settings, checkpoint = resumed_settings(args, folder, ("robot", "hands", "algo"))
         return settings, config_from_dict(checkpoint["meta"]["config"], where=str(folder.checkpoint_path))
@@ -122,7 +127,19 @@ def _settings(args, folder: RunFolder) -> tuple[dict, TrainConfig]:
         "seed": args.seed,
         "workers": args.workers or 2,
     }
+    if args.init:
+        _check_init(RunFolder(args.init), settings)
+        settings["init"] = str(Path(args.init).resolve())
     return settings, config
+
+
+def _check_init(folder: RunFolder, settings: dict) -> None:
+    """`--init`: a run folder of the same robot and hands."""
+    folder.check_run()
+    theirs = folder.settings()
+    for name in ("robot", "hands"):
+        if theirs.get(name) != settings[name]:
+            raise InputError(f"{folder.path}: --init is a run of {name} {theirs.get(name)}, not {settings[name]}")
 
 
 def pretrain(args) -> int:
@@ -130,11 +147,13 @@ def pretrain(args) -> int:
     settings, config = _settings(args, folder)
     torch.set_num_threads(config.torch_threads)
     run = imitation_run(settings, config)  # bad motions fail here, before anything is written
-    if not args.resume:
-        folder.start(settings, config.to_dict())
     envs = run.vector_env(settings["workers"], args.ray)
     try:
         agent = make_agent(config, envs, run, settings["seed"])
+        if settings.get("init") and not args.resume:  # (before the run folder is written: a misfit fails here)
+            agent.start_from(RunFolder(settings["init"]).checkpoint()["state"], settings["init"])
+        if not args.resume:
+            folder.start(settings, config.to_dict())
         if args.resume:
             agent.load_state_dict(folder.checkpoint()["state"])
             counters = agent.counters

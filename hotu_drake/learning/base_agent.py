@@ -26,6 +26,7 @@ import time
 import numpy as np
 import torch
 
+from hotu_drake.errors import InputError
 from hotu_drake.learning.buffers import EpisodeLog
 from hotu_drake.learning.logger import count_iteration
 from hotu_drake.learning.networks import ActorCritic, PolicyConfig
@@ -210,6 +211,18 @@ class BaseAgent:
             "counters": dict(self.counters),
             **self.episodes.state_dict(),
         }
+
+    def start_from(self, state: dict, source: str) -> None:
+        """Begin with another run's networks (`state`: the agent state of
+        its checkpoint, named `source` in errors): the model's weights and
+        observation normalisers, nothing of its training (optimisers,
+        counters, random streams); `InputError` if they do not fit."""
+        try:
+            self.model.load_state_dict(state["model"])
+        except (KeyError, RuntimeError):
+            raise InputError(
+                f"{source}: its networks do not fit this run's (another robot, hands or observation?)"
+            ) from None
 
     def load_state_dict(self, state: dict) -> None:
         self.model.load_state_dict(state["model"])
