@@ -995,3 +995,64 @@ def test_the_controller_lifts_a_can_in_its_closed_hand():
         timeout=120,
     )
     assert refused.returncode != 0 and "--grasps" in refused.stderr
+
+
+def test_the_fingerless_teacher_solves_the_body_and_asks_the_fingers_for_the_clip():
+    """A robot with fingers is taught by the whole-body controller of its
+    body (`systems.fingerless_teacher`): its rigid hands as heavy as hand
+    and fingers, the state it is given taken joint by joint into the
+    body's, the body's joints acting as that controller acts, each finger
+    asking for the clip's position."""
+    from pydrake.multibody.plant import MultibodyPlant
+
+    from hotu_drake.embodiment.actions import ActionScaling
+    from hotu_drake.motion.playback import ClipPlayback
+    from hotu_drake.plant import set_robot_state
+    from hotu_drake.retarget.references import reference_clip
+    from hotu_drake.systems.fingerless_teacher import FingerlessTeacher, has_fingers, lumped_hands
+
+    full = embodiment.load("udh", "full")
+    assert has_fingers(full) and not has_fingers(embodiment.load("h1", "none"))
+    plants = []
+    for emb in (full, lumped_hands(full)):
+        plant = MultibodyPlant(0.0)
+        model = emb.add_to_plant(plant, builtin_pd=False)
+        plant.Finalize()
+        context = plant.CreateDefaultContext()
+        set_robot_state(plant, context, model, emb)
+        plants.append((plant, context))
+    masses = [plant.CalcTotalMass(context) for plant, context in plants]
+    assert abs(masses[0] - masses[1]) < 0.05, masses  # (without the lumping: 1.0 kg lighter)
+    clip = reference_clip("hand_grasp@0", full)
+    teacher = FingerlessTeacher(full, clip, 1 / 60, loop=False)
+    (full_plant, full_context), (body_plant, body_context) = plants
+    rng = np.random.default_rng(0)
+    full_plant.SetVelocities(full_context, rng.normal(size=full_plant.num_velocities()))
+    for name in full.joint_names:
+        full_plant.GetJointByName(name).set_angle(full_context, rng.uniform(-0.5, 0.5))
+    x = full_plant.GetPositionsAndVelocities(full_context)
+    body_plant.SetPositionsAndVelocities(body_context, x[teacher._columns])
+    states = [(plant.GetPositions(context), plant.GetVelocities(context)) for plant, context in plants]
+    for index in body_plant.GetJointIndices():  # every joint's position and velocity, taken by name
+        joint = body_plant.get_joint(index)
+        theirs = full_plant.GetJointByName(joint.name())
+        for k, (start, size) in enumerate(
+            [
+                (lambda j: j.position_start(), joint.num_positions()),
+                (lambda j: j.velocity_start(), joint.num_velocities()),
+            ]
+        ):
+            np.testing.assert_array_equal(
+                states[1][k][start(joint) : start(joint) + size], states[0][k][start(theirs) : start(theirs) + size]
+            )
+    body = body_plant.GetPositionsAndVelocities(body_context)
+    action = teacher.act(x, 1.0)
+    assert action.shape == (len(full.joint_names),) and np.all(np.abs(action) <= 1.0)
+    positions = ClipPlayback(clip, loop=False).joints_at(1.0)[0]
+    wanted = ActionScaling.for_embodiment(full).to_action(
+        positions[[clip.joint_names.index(n) for n in full.joint_names]]
+    )
+    np.testing.assert_allclose(action[teacher._fingers], np.clip(wanted[teacher._fingers], -1, 1), atol=1e-12)
+    assert len(teacher._fingers) == len(full.joint_names) - 34  # the UDH's fingers, every one
+    inner = FingerlessTeacher(full, clip, 1 / 60, loop=False).controller  # a fresh one: the QP warm-starts
+    np.testing.assert_allclose(action[teacher._body_joints], inner.act(body, 1.0), atol=1e-9)

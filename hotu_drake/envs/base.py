@@ -522,8 +522,11 @@ class DiagramEnv(gym.Env):
     # -- the teacher -----------------------------------------------------------
 
     def _teacher(self):
-        """The whole-body controller of the episode's clip (the standing pose after a default start)."""
+        """The whole-body controller of the episode's clip (the standing pose
+        after a default start); for a robot with fingers, solved without them
+        (`systems.fingerless_teacher`: the same grasps held, at less than half the cost)."""
         from hotu_drake.control.clip_plan import standing_clip
+        from hotu_drake.systems.fingerless_teacher import FingerlessTeacher, has_fingers
         from hotu_drake.systems.whole_body import WholeBodyController
 
         key = self._episode_clip
@@ -531,7 +534,12 @@ class DiagramEnv(gym.Env):
             clip = self.clips[key] if key is not None else standing_clip(self.embodiment)
             step = self.scenario.time_step
             loop = key is not None and self.loops[key]
-            self._teachers[key] = WholeBodyController(self.embodiment, clip, self.control_period, loop, None, 0.0, step)
+            if has_fingers(self.embodiment):
+                self._teachers[key] = FingerlessTeacher(self.embodiment, clip, self.control_period, loop, step)
+            else:
+                self._teachers[key] = WholeBodyController(
+                    self.embodiment, clip, self.control_period, loop, None, 0.0, step
+                )
         return self._teachers[key]
 
     def teacher_action(self) -> np.ndarray:
