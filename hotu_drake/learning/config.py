@@ -203,7 +203,8 @@ class EnvironmentConfig:
     # placed under the robot: a deployed clip-following policy's start. The run's evaluation then starts there.
     standing_follow: bool = False
     # How a training episode's clip is drawn: "uniform", or "falls" (half evenly, half by each clip's smoothed
-    # fall rate in that worker's environment, `envs.base.clip_weights`). Its effect is not yet measured.
+    # fall rate in that worker's environment, `envs.base.clip_weights`). Measured once, on H1's fifteen-motion
+    # clone (RESULTS.md section 13, one seed): three motions performed against seven drawn evenly.
     clip_sampling: str = "uniform"
     # The clips' objects in the scene (a grasp's table and object, the carry's box), each episode's where its
     # clip has them (`envs.clip_objects`); the run's evaluation then reports how many it held up.
