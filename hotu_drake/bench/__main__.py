@@ -13,7 +13,7 @@ python -m hotu_drake.bench train    [--robot NAME] [--motions M ...] [--workers 
                                     [--algo dail|amp|ase|pmp]
 python -m hotu_drake.bench readers  [--input FILE ...] [--repeats N]
 python -m hotu_drake.bench clips    [--motions M ...] [--input FILE ...] [--robots NAME ...] [--markdown]
-python -m hotu_drake.bench teacher  [--robot NAME] [--seconds S] [--repeats N] [--queries N]
+python -m hotu_drake.bench teacher  [--robot NAME] [--seconds S] [--repeats N] [--queries N] [--hands H] [--motion M]
 python -m hotu_drake.bench pushes   [--robots NAME ...] [--momenta KG_M_S ...] [--markdown]
 python -m hotu_drake.bench grasps   [--grasps N] [--first SEED] [--time-steps DT ...]
 python -m hotu_drake.bench performs [--robots NAME ...] [--motions M ...] [--input FILE ...] [--seeds N]
@@ -406,10 +406,11 @@ def _teacher(args) -> int:
     check_number(args.seconds, "--seconds", low=0.1, high=600.0, unit="s")
     check_number(args.queries, "--queries", low=1, high=10000, integer=True)
     check_number(args.repeats, "--repeats", low=1, high=100, integer=True)
+    check_choice(args.hands, "--hands", embodiment.HANDS_VARIANTS)
     pin_to_one_core()
     walking = walking_cost(args.robot, args.seconds, args.repeats)
     print(json.dumps(walking), file=sys.stderr, flush=True)
-    labels = label_cost(args.robot, args.queries)
+    labels = label_cost(args.robot, args.queries, args.hands, args.motion)
     print(json.dumps(labels), file=sys.stderr, flush=True)
     print(json.dumps({"benchmark": "teacher", "machine": machine(), "walking": walking, "labels": labels}, indent=2))
     return 0
@@ -510,6 +511,8 @@ def main(argv: list[str] | None = None) -> int:
     teacher.add_argument("--seconds", type=float, default=10.0, help="simulated seconds of walking")
     teacher.add_argument("--repeats", type=int, default=5, help="walks timed (the middle one reported)")
     teacher.add_argument("--queries", type=int, default=100, help="teacher_action queries timed in Imitation-v0")
+    teacher.add_argument("--hands", default="none", help="the label queries' hands (full: the fingerless teacher)")
+    teacher.add_argument("--motion", default="walk", help="the label queries' library motion (e.g. hand_grasp@0)")
     grasps = sub.add_parser("grasps", help="the whole-body controller taking the grasp set's objects off a table")
     grasps.add_argument("--grasps", type=int, default=20, help="grasps of the set (hand_grasp@<seed>)")
     grasps.add_argument("--first", type=int, default=0, help="the first grasp's seed")

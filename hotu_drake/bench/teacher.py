@@ -52,16 +52,18 @@ def _walking_once(robot: str, seconds: float) -> dict:
     }
 
 
-def label_cost(robot: str, steps: int) -> dict:
-    """Milliseconds per `teacher_action` query in Imitation-v0 (the walk,
-    from a reference start, stepped with the teacher's own actions), asked
-    once a step (made without `teacher=True`, whose `info` would ask again
-    and advance the controller's warm start and footing twice a step)."""
+def label_cost(robot: str, steps: int, hands: str = "none", motion: str = "walk") -> dict:
+    """Milliseconds per `teacher_action` query in Imitation-v0 (`motion`,
+    from a reference start at its first frame, stepped with the teacher's
+    own actions), asked once a step (made without `teacher=True`, whose
+    `info` would ask again and advance the controller's warm start and
+    footing twice a step). With fingers (`hands="full"`) the teacher is the
+    environments' `FingerlessTeacher`."""
     import gymnasium as gym
 
     import hotu_drake.envs  # noqa: F401 (registers the environments)
 
-    env = gym.make("hotu_drake/Imitation-v0", robot=robot, hands="none", motions=["walk"])
+    env = gym.make("hotu_drake/Imitation-v0", robot=robot, hands=hands, motions=[motion])
     inner = env.unwrapped
     env.reset(seed=0, options={"init": "reference", "clip": 0, "time": 0.0})
     seconds, queries = [], 0
@@ -76,6 +78,8 @@ def label_cost(robot: str, steps: int) -> dict:
     env.close()
     return {
         "robot": robot,
+        "hands": hands,
+        "motion": motion,
         "queries": queries,
         "ms_per_query_median": round(1000 * float(np.median(seconds)), 3),
         "ms_per_query_mean": round(1000 * float(np.mean(seconds)), 3),
