@@ -24,6 +24,7 @@ from hotu_drake.embodiment.formats.sdf import geometry_sdf
 from hotu_drake.embodiment.spec import Geometry, box, cylinder, sphere
 from hotu_drake.errors import InputError
 from hotu_drake.resources import models_dir
+from hotu_drake.rotations import heading_yaw
 
 
 @dataclass(frozen=True)
@@ -340,8 +341,7 @@ def set_object_pose(plant: MultibodyPlant, plant_context, body, pose: RigidTrans
         plant.SetFreeBodySpatialVelocity(plant_context, body, SpatialVelocity.Zero())
         return
     joint = plant.GetJointByName("planar", body.model_instance())
-    turn = pose.rotation().matrix()
-    joint.set_pose(plant_context, pose.translation()[:2], float(np.arctan2(turn[1, 0], turn[0, 0])))
+    joint.set_pose(plant_context, pose.translation()[:2], float(heading_yaw(pose.rotation().matrix())))
     joint.set_translational_velocity(plant_context, np.zeros(2))
     joint.set_angular_velocity(plant_context, 0.0)
 

@@ -31,7 +31,7 @@ from hotu_drake.embodiment import Embodiment
 from hotu_drake.motion.clip import MotionClip
 from hotu_drake.motion.playback import ClipPlayback
 from hotu_drake.plant import actuated_state_indices, alignment, move_free_body, placed_under
-from hotu_drake.rotations import heading_rotation
+from hotu_drake.rotations import heading_rotation, heading_yaw
 
 PHASE_SIZE = 2  # `clip_phase`: the sine and cosine of where the robot is in its clip
 # `reference_features`: the reference's root (3), heading (2), CoM position (3) and velocity (3) and feet
@@ -182,8 +182,7 @@ class MotionReference(LeafSystem):
     def _Place(self, context: Context, discrete_state: DiscreteValues) -> None:
         self._set_robot(context)
         frame = placed_under(self._plant.EvalBodyPoseInWorld(self._robot, self._root), self._start)
-        yaw = np.arctan2(frame.rotation().matrix()[1, 0], frame.rotation().matrix()[0, 0])
-        discrete_state.set_value(self._placement, [*frame.translation()[:2], yaw])
+        discrete_state.set_value(self._placement, [*frame.translation()[:2], heading_yaw(frame.rotation().matrix())])
         discrete_state.set_value(self._shift, np.zeros(3))
 
     def _Follow(self, context: Context, discrete_state: DiscreteValues) -> None:
